@@ -1,0 +1,329 @@
+"""TCA dynamics: thermal model (1) and the kinetostatic dynamics (18) of [1].
+
+    m_t c_p dT/dt = -h c_s A_0 (T - T_inf) + P_in                        (1)
+    m x'' + b_t x' + f_rod(x, T) = F_load                                 (18)
+
+Eq. (18) is stepped with the central differences of Sec. V-B4,
+
+    x'' ~ (x_{i+1} - 2 x_i + x_{i-1}) / dt^2,  x' ~ (x_{i+1} - x_{i-1}) / (2 dt),
+
+explicit in f_rod, so each step needs one evaluation of f_rod. The scheme is
+stable for dt < 2 / omega, omega = sqrt(k / m) (k = d f_rod / d x); a step beyond
+0.9 of that limit is split into equal substeps automatically. A massless load
+(m = 0) is quasi-static: the damped first-order equation b_t x' + f_rod = F is
+stepped with backward Euler (unconditionally stable), or solved for equilibrium
+when b_t = 0 too. Coil contact (Sec. V-D1) is a hard, inelastic stop.
+
+The temperature (1) is updated exactly under zero-order-hold power while eq. (1)
+is linear, and by classical Runge-Kutta when radiation or nonlinear convection
+make it nonlinear (error below 1e-9 K per step for dt <= 10 ms, tau = 3 s).
+
+f_rod is evaluated once per step, at (q_i, T_i), its moduli taken at the previous
+step's tension (eq. (11) fixed point reached over steps).
+
+State coordinate: q, the elongation (m) of the free end from the natural length
+l*, positive when stretched; the displacement published is the contraction
+x = q_ref - q from the loaded equilibrium at ambient (positive when shorter).
+"""
+from dataclasses import dataclass
+import math
+
+import numpy as np
+
+from tca_ros.model import effects as fx
+from tca_ros.model.kinetostatics import contact_elongation, make_kinetostatic_model
+from tca_ros.model.resistance import resistance
+from tca_ros.model.thermal import heat_capacity, surface_area, thermal_conductance
+
+STABILITY_SAFETY = 0.9  # fraction of the central-difference limit 2/omega used per substep
+MAX_SUBSTEPS = 1000  # beyond this, ask for the quasi-static mode instead
+STABILITY_RECHECK = 100  # steps between re-evaluations of the stability limit (k drifts slowly)
+
+
+class StabilityError(ValueError):
+    """The step is beyond the explicit stability limit by more than MAX_SUBSTEPS."""
+
+
+@dataclass
+class TcaState:
+    """Simulator state after a step. SI units, temperatures in degC."""
+
+    time: float = 0.0  # s
+    temperature: float = 25.0  # degC, fiber temperature T
+    actuation_temperature: float = 25.0  # degC, T seen by the untwist (hysteresis)
+    elongation: float = 0.0  # m, q of the free end from l* (includes creep)
+    previous_elongation: float = 0.0  # m, q one step earlier
+    velocity: float = 0.0  # m/s, dq/dt (stretching positive)
+    creep: float = 0.0  # m, creep elongation y_c
+    tension: float = 0.0  # N, f_rod
+    displacement: float = 0.0  # m, true contraction from the reference
+    measured_displacement: float = 0.0  # m, displacement seen by the (lagged) sensor
+    resistance: float = 25.0  # ohm
+    power: float = 0.0  # W, electrical power input
+    load: float = 0.0  # N, external tensile force
+    in_contact: bool = False
+
+
+def central_difference_step(q, q_prev, force, mass, damping, dt):
+    """Return q_{i+1} (m) of m q'' + b q' = force (N), central differences [1, V-B4].
+
+    ``force`` is the net force F_load - f_rod(q_i) (N) at step i.
+    """
+    a = mass / (dt * dt)
+    c = damping / (2.0 * dt)
+    return (force + a * (2.0 * q - q_prev) + c * q_prev) / (a + c)
+
+
+def central_difference_limit(stiffness, mass):
+    """Return the stability limit 2 / omega (s) of the central-difference step."""
+    if mass <= 0.0 or stiffness <= 0.0:
+        return math.inf
+    return 2.0 * math.sqrt(mass / stiffness)
+
+
+class TcaSimulator:
+    """Step a TCA: power and load in; temperature, displacement, resistance out.
+
+    Parameters
+    ----------
+    params : TcaParams
+        The TCA (config/*.yaml).
+    model : str, optional
+        Kinetostatic model rod | cst | love (default ``params.model``).
+    dt : float
+        Physics step (s), e.g. 1e-3 for 1 kHz.
+    kinetostatics : KinetostaticModel, optional
+        A prebuilt model (shares the rod table between simulators).
+    """
+
+    def __init__(self, params, model=None, dt=1e-3, kinetostatics=None):
+        if not (math.isfinite(dt) and dt > 0.0):
+            raise ValueError(f'dt = {dt!r}: must be a positive number of seconds')
+        self.params = params
+        self.dt = dt
+        self.kinetostatics = kinetostatics or make_kinetostatic_model(params, model)
+        self._heat_capacity = heat_capacity(params.fiber)
+        self._conductance = thermal_conductance(params.fiber, params.thermal)
+        self._area = surface_area(params.fiber)
+        self._ambient = fx.true_ambient(params.thermal, params.effects)
+        self._contact = contact_elongation(params)
+        self._linear_thermal = (params.effects.emissivity == 0.0
+                                and params.effects.convection_exponent == 0.0)
+        self._substeps = 1
+        self._steps_since_check = 0
+        self.state = TcaState()
+        self.reference_elongation = 0.0
+        self.loaded_length = 1.0
+        self.reset()
+
+    # -- set-up -------------------------------------------------------------------
+    def reset(self, load=None, temperature=None):
+        """Return to equilibrium at ``temperature`` (degC, default ambient) under load (N).
+
+        The displacement reference is this loaded equilibrium at ambient.
+        """
+        p = self.params
+        load = p.dynamics.load if load is None else float(load)
+        temp = self._ambient if temperature is None else float(temperature)
+        q = self.equilibrium(load, temp)
+        self.reference_elongation = self.equilibrium(load, self._ambient)
+        self.loaded_length = self.kinetostatics.natural_length + self.reference_elongation
+        self.state = TcaState(time=0.0, temperature=temp, actuation_temperature=temp,
+                              elongation=q, previous_elongation=q, load=load)
+        self.state.tension = self.kinetostatics.tension(q, temp)
+        self._update_outputs(self.state, 0.0)
+        self.state.measured_displacement = self.state.displacement
+        self._substeps = self.check_step()
+        return self.state
+
+    def equilibrium(self, load, temperature):
+        """Return the static elongation (m) under load (N) at temperature (degC).
+
+        Coil contact (Sec. V-D1) bounds it from below.
+        """
+        y = self.kinetostatics.equilibrium_elongation(load, temperature)
+        return max(y, self._contact)
+
+    def stability_limit(self):
+        """Return the central-difference stability limit 2/omega (s) at the state."""
+        s = self.state
+        k = self.kinetostatics.stiffness(max(s.elongation - s.creep, self._contact),
+                                         s.actuation_temperature)
+        return central_difference_limit(k, self.params.dynamics.mass)
+
+    def substeps(self):
+        """Return the number of equal substeps one step of dt needs to stay stable."""
+        limit = STABILITY_SAFETY * self.stability_limit()
+        return max(1, math.ceil(self.dt / limit)) if math.isfinite(limit) else 1
+
+    def check_step(self):
+        """Raise StabilityError when dt needs more than MAX_SUBSTEPS substeps."""
+        n = self.substeps()
+        if n > MAX_SUBSTEPS:
+            raise StabilityError(
+                f'dynamics.mass = {self.params.dynamics.mass:g} kg: explicit limit '
+                f'2/omega = {self.stability_limit():.3g} s needs {n} substeps of '
+                f'dt = {self.dt:g} s; allowed at most {MAX_SUBSTEPS} '
+                '(use mass 0 for the quasi-static mode or a smaller dt)')
+        return n
+
+    # -- stepping -----------------------------------------------------------------
+    def step(self, power, load=None):
+        """Advance one dt with power (W) and external tensile load (N); return state."""
+        s = self.state
+        load = s.load if load is None else float(load)
+        self._steps_since_check += 1
+        if self._steps_since_check >= STABILITY_RECHECK:
+            self._steps_since_check = 0
+            self._substeps = self.check_step()
+        n = self._substeps
+        h = self.dt / n
+        for _ in range(n):
+            self._substep(power, load, h)
+        return s
+
+    def _substep(self, power, load, h):
+        p, s = self.params, self.state
+        model = self.kinetostatics
+        mass, damping = p.dynamics.mass, p.dynamics.damping
+        q, y_c = s.elongation, s.creep
+        if mass > 0.0:
+            q_next = central_difference_step(q, s.previous_elongation, load - s.tension,
+                                             mass, damping, h)
+        elif damping > 0.0:
+            q_next = self._backward_euler(q, y_c, load, s.actuation_temperature, damping, h)
+        else:
+            q_next = y_c + model.equilibrium_elongation(load, s.actuation_temperature,
+                                                        guess=q - y_c)
+        s.in_contact = q_next - y_c < self._contact
+        if s.in_contact:
+            q_next = y_c + self._contact
+            q = q_next  # inelastic stop: the coils absorb the momentum
+        s.previous_elongation = q
+        s.elongation = q_next
+        s.velocity = (q_next - q) / h
+        if p.effects.creep_compliance > 0.0:
+            s.creep = y_c + h * fx.creep_rate(y_c, s.tension, p.effects)
+        s.temperature = self._thermal_step(s.temperature, power, h)
+        s.actuation_temperature = fx.play_operator(
+            s.temperature, s.actuation_temperature, p.effects.hysteresis_width)
+        s.time += h
+        s.power, s.load = power, load
+        s.tension = model.tension(s.elongation - s.creep, s.actuation_temperature, s.tension)
+        self._update_outputs(s, h)
+
+    def _backward_euler(self, q, y_c, load, temp, damping, h):
+        """Return q_{i+1} of b (q_{i+1} - q_i)/h + f_rod(q_{i+1}) = F (Newton)."""
+        model = self.kinetostatics
+        y = q - y_c
+        for _ in range(20):
+            residual = damping * (y + y_c - q) / h + model.tension(y, temp) - load
+            slope = damping / h + model.stiffness(max(y, self._contact), temp)
+            step = residual / slope
+            y -= step
+            if abs(step) < 1e-12:
+                break
+        return y + y_c
+
+    def _thermal_rate(self, temp, power):
+        """Return dT/dt (K/s) of eq. (1) with the thermal effects."""
+        e = self.params.effects
+        ambient = self._ambient
+        loss = self._conductance * (temp - ambient) * fx.convection_factor(temp, ambient, e)
+        loss += fx.radiation_loss(temp, ambient, self._area, e)
+        return (fx.heating_power(power, e) - loss) / self._heat_capacity
+
+    def _thermal_step(self, temp, power, h):
+        """Return T after h (s), power held constant: exact if linear, else RK4."""
+        if self._linear_thermal:
+            target = self._ambient + fx.heating_power(power, self.params.effects) \
+                / self._conductance
+            return target + (temp - target) * math.exp(-h * self._conductance
+                                                       / self._heat_capacity)
+        k1 = self._thermal_rate(temp, power)
+        k2 = self._thermal_rate(temp + 0.5 * h * k1, power)
+        k3 = self._thermal_rate(temp + 0.5 * h * k2, power)
+        k4 = self._thermal_rate(temp + h * k3, power)
+        return temp + h * (k1 + 2.0 * k2 + 2.0 * k3 + k4) / 6.0
+
+    def _update_outputs(self, s, h):
+        p = self.params
+        s.displacement = self.reference_elongation - s.elongation
+        s.measured_displacement = fx.lag_filter(s.measured_displacement, s.displacement, h,
+                                                p.effects)
+        s.resistance = resistance(s.temperature, s.displacement, self.loaded_length,
+                                  p.electrical, p.thermal.ambient_temperature)
+
+
+@dataclass
+class SimulationResult:
+    """Sampled simulation output; arrays of shape (n,), SI units, degC."""
+
+    time: np.ndarray
+    power: np.ndarray
+    load: np.ndarray
+    displacement: np.ndarray  # m, contraction as the sensor reads it
+    temperature: np.ndarray  # degC
+    resistance: np.ndarray  # ohm
+    tension: np.ndarray  # N
+    velocity: np.ndarray  # m/s, contraction rate
+    substeps: int  # substeps per physics step used at the start
+
+
+def simulate(params, time, power, load=None, model=None, physics_rate=1000.0,
+             kinetostatics=None):
+    """Simulate a power (W) and load (N) profile; return samples at ``time`` (s).
+
+    Inputs are held constant between samples (zero-order hold). The physics runs at
+    ``physics_rate`` (Hz), or at the sample interval when that is finer. The state
+    starts at the loaded equilibrium at ambient under ``load[0]``.
+    """
+    time = np.asarray(time, dtype=float)
+    power = np.asarray(power, dtype=float)
+    load = (np.full_like(time, params.dynamics.load) if load is None
+            else np.asarray(load, dtype=float))
+    if time.ndim != 1 or time.size < 1 or power.shape != time.shape or \
+            load.shape != time.shape:
+        raise ValueError('time, power and load must be 1-D arrays of equal length')
+    if time.size > 1 and not np.all(np.diff(time) > 0.0):
+        raise ValueError('time must be strictly increasing')
+    intervals = np.diff(time)
+    dt = min(1.0 / physics_rate, float(intervals.min())) if time.size > 1 \
+        else 1.0 / physics_rate
+    sim = TcaSimulator(params, model=model, dt=dt, kinetostatics=kinetostatics)
+    state = sim.reset(load=load[0])
+    n0 = sim.check_step()
+    out = np.empty((6, time.size))
+    out[:, 0] = _sample(state)
+    for i in range(1, time.size):
+        span = time[i] - time[i - 1]
+        steps = max(1, int(round(span / dt)))
+        sim.dt = span / steps
+        for _ in range(steps):
+            state = sim.step(power[i - 1], load[i - 1])
+        out[:, i] = _sample(state)
+    return SimulationResult(time=time, power=power, load=load, displacement=out[0],
+                            temperature=out[1], resistance=out[2], tension=out[3],
+                            velocity=out[4], substeps=n0)
+
+
+def _sample(s):
+    return (s.measured_displacement, s.temperature, s.resistance, s.tension, -s.velocity,
+            s.displacement)
+
+
+def static_displacement(params, load, temperatures, model=None, kinetostatics=None):
+    """Return the contraction (m) under load (N) at each temperature (degC).
+
+    Zero at the first temperature (the loaded equilibrium there); coil contact
+    applied. Continuation in temperature (Algorithm 1 of [1]).
+    """
+    km = kinetostatics or make_kinetostatic_model(params, model)
+    stop = contact_elongation(params)
+    temps = np.asarray(temperatures, dtype=float)
+    out = np.empty_like(temps)
+    guess = None
+    for i, temp in enumerate(temps):
+        guess = km.equilibrium_elongation(load, float(temp), guess=guess)
+        out[i] = max(guess, stop)
+    return out[0] - out

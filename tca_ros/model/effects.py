@@ -1,0 +1,117 @@
+"""Extensions of the nominal TCA model: the catalogue the diagnosis searches.
+
+Each effect is a physical relation, neutral at its default parameter value
+(``EffectParams`` in params.py), so the nominal model is the extended model with
+every effect switched off. The simulator (dynamics.py) and the node call these
+functions; the diagnosis (tca_ros.diagnosis) fits their parameters.
+
+==================== ============================= ===================================
+name                 parameter(s)                  relation
+==================== ============================= ===================================
+creep                creep_compliance (m/N),       Kelvin-Voigt element in series:
+                     creep_time_constant (s)       dy_c/dt = (C F - y_c) / tau_c
+hysteresis           hysteresis_width (K)          play operator on the actuation
+                                                   temperature
+radiation            emissivity (-)                eps sigma A_0 (T^4 - T_inf^4)
+nonlinear_convection convection_exponent (-)       h (|T - T_inf| / dT_ref)^n
+modulus_softening    extra_softening (Pa/K)        E_f falls faster with T (eq. 11)
+coil_contact         coil.min_pitch_angle_deg      stroke stops at l_t sin(alpha_min)
+sensor_lag           sensor_lag (s)                first-order lag of the sensor
+ambient_offset       ambient_offset (K)            true T_inf = nominal + offset
+power_loss           power_loss_fraction (-)       heating power (1 - eta) P
+==================== ============================= ===================================
+
+References
+----------
+[1] J. Sun and J. Zhao, IEEE Trans. Robot., 2022 (Sec. V-D1, VI: creep, lonely
+    stroke, hysteresis, coil contact left out of the model).
+[2] S. Kianzad et al., "Nylon coil actuator operating temperature range and
+    stiffness," Proc. SPIE 9430, 2015 (creep of nylon coils under load).
+[3] J. Zhang, K. Iyer, A. Simeonov, M. C. Yip, "Modeling and inverse compensation
+    of hysteresis in supercoiled polymer artificial muscles," IEEE RA-L 2(2), 2017.
+[4] K. Masuya, S. Ono, K. Takagi, K. Tahara, "Modeling framework for macroscopic
+    dynamics of twisted and coiled polymer actuator driven by Joule heating
+    focusing on energy and convective heat transfer," Sens. Actuators A 267, 2017
+    (radiation and temperature-dependent convection).
+[5] F. Karami, L. Wu, Y. Tadesse, IEEE/ASME Trans. Mechatronics 26(1), 2021
+    (moduli falling with temperature and load).
+[6] A. Demsar, V. Bukosek, A. Kljun, "Dynamic mechanical analysis of nylon 66
+    cord yarns," Fibres Text. East. Eur. 4(81), 2010 (modulus vs temperature).
+"""
+import math
+
+STEFAN_BOLTZMANN = 5.670374419e-8  # W/(m^2 K^4)
+KELVIN = 273.15  # K at 0 degC
+
+#: Effect names, as used in diagnosis.json, with the parameters each one owns.
+CATALOGUE = {
+    'creep': ('effects.creep_compliance', 'effects.creep_time_constant'),
+    'hysteresis': ('effects.hysteresis_width',),
+    'radiation': ('effects.emissivity',),
+    'nonlinear_convection': ('effects.convection_exponent',),
+    'modulus_softening': ('effects.extra_softening',),
+    'coil_contact': ('coil.min_pitch_angle_deg',),
+    'sensor_lag': ('effects.sensor_lag',),
+    'ambient_offset': ('effects.ambient_offset',),
+    'power_loss': ('effects.power_loss_fraction',),
+}
+
+
+def heating_power(power, effects):
+    """Return the power heating the fiber (W): (1 - eta) P, the 'power_loss' effect."""
+    return (1.0 - effects.power_loss_fraction) * power
+
+
+def true_ambient(thermal, effects):
+    """Return the true ambient temperature (degC): nominal + 'ambient_offset' (K)."""
+    return thermal.ambient_temperature + effects.ambient_offset
+
+
+def convection_factor(temp, ambient, effects):
+    """Return h_eff / h (-): (|T - T_inf| / dT_ref)^n, 'nonlinear_convection'.
+
+    Natural convection from a thin cylinder grows with the temperature difference
+    (laminar correlations give n = 1/4) [4]. n = 0 is the constant h of eq. (1).
+    """
+    n = effects.convection_exponent
+    if n == 0.0:
+        return 1.0
+    return (abs(temp - ambient) / effects.convection_reference_dt) ** n
+
+
+def radiation_loss(temp, ambient, area, effects):
+    """Return the radiated power eps sigma A (T^4 - T_inf^4) (W), 'radiation' [4].
+
+    ``area`` (m^2) is the smooth surface A_0: the roughness of c_s traps its own
+    radiation, so the envelope radiates.
+    """
+    if effects.emissivity == 0.0:
+        return 0.0
+    return effects.emissivity * STEFAN_BOLTZMANN * area * (
+        (temp + KELVIN) ** 4 - (ambient + KELVIN) ** 4)
+
+
+def play_operator(temp, state, width):
+    """Return the play-operator output (degC), the 'hysteresis' effect [3].
+
+    The actuation temperature follows T only once T has moved more than width/2
+    past it, so heating and cooling branches of the stroke differ by ``width`` (K).
+    """
+    half = 0.5 * width
+    return min(max(state, temp - half), temp + half)
+
+
+def creep_rate(creep_elongation, tension, effects):
+    """Return dy_c/dt (m/s) of the Kelvin-Voigt creep element, 'creep' [2].
+
+        dy_c/dt = (C F - y_c) / tau_c
+    """
+    return (effects.creep_compliance * tension - creep_elongation) / effects.creep_time_constant
+
+
+def lag_filter(measured, true_value, dt, effects):
+    """Return the lagged sensor reading after dt (s), 'sensor_lag' (first order)."""
+    tau = effects.sensor_lag
+    if tau == 0.0:
+        return true_value
+    return true_value + (measured - true_value) * math.exp(-dt / tau)

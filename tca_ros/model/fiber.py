@@ -1,0 +1,29 @@
+"""Fiber actuation model: radial expansion and untwist, Eqs. (2)-(4) of [1].
+
+Convention (docs/decisions.md, D1): Gamma(T) = c2 T^2 + c1 T + c0 with
+[c2, c1, c0] = [3.54e-6, -6.705e-5, 1.0017] (the text swaps c0 and c2), renormalised
+to Gamma(T0) so that the untwist is zero at the ambient temperature and negative
+when hot (the fiber untwists, the right-handed coil contracts).
+"""
+
+
+def radius_ratio(temp, fiber):
+    """Return Gamma(T) = r_t^h / r_t^* (-), the polynomial fit of Eq. (2); T in degC."""
+    c2, c1, c0 = fiber.gamma_coefficients
+    return (c2 * temp + c1) * temp + c0
+
+
+def heated_fiber_radius(temp, fiber, ambient):
+    """Return the heated fiber radius r_t^h (m), Eq. (2), renormalised to Gamma(T0)."""
+    return fiber.radius * radius_ratio(temp, fiber) / radius_ratio(ambient, fiber)
+
+
+def unit_untwist(temp, fiber, ambient):
+    """Return the untwist per length Delta theta_bar^h (rad/m), Eq. (4).
+
+        Delta theta_bar^h = theta_bar* (Gamma(T0) / Gamma(T) - 1)
+
+    Zero at T0 = ``ambient`` (degC) and negative when hotter.
+    """
+    return fiber.inserted_twist * (radius_ratio(ambient, fiber) / radius_ratio(temp, fiber)
+                                   - 1.0)

@@ -1,0 +1,227 @@
+"""Coil kinetostatic models: Love's equation (19)-(27) and CST (28)-(29) of [1].
+
+A kinetostatic model gives the axial force f_rod that the TCA exerts at an axial
+elongation y and temperature T, the term f_rod(x, T) of the dynamics (18).
+
+Conventions (docs/decisions.md)
+-------------------------------
+- Elongation y = l - l* (m) is measured from the natural reference length
+  l* = l_t sin(alpha*) (eq. (26) at the reference state), positive when stretched.
+- Tension F (N) is positive when the TCA pulls (the hanging weight gives F = m g,
+  i.e. F_e = -F in the paper's sign).
+- The untwist of eq. (4) is negative when hot; the coil then contracts.
+- Love's equation keeps the coil count fixed (eq. (24), end cannot rotate); CST and
+  the rod model let the end rotate (M_e = 0). CST coefficients are evaluated at the
+  current pitch angle sin(alpha) = l / l_t with the coil radius held at r*
+  (Sec. IV-B allows updating r and alpha; with the end free to rotate, the coil
+  count rather than the radius absorbs the change).
+- Moduli follow eq. (11) with F the current tension (a fixed point, solved by
+  iteration).
+"""
+import math
+
+from tca_ros.model.fiber import unit_untwist
+from tca_ros.model.moduli import section_stiffness
+
+_MODULI_TOLERANCE = 1e-9  # N, fixed point of F in eq. (11)
+_MODULI_MAX_ITERATIONS = 50  # secant iterations on F; 3-6 are typical
+_STIFFNESS_STEP = 1e-7  # m, central-difference step for d tension / d y
+
+
+def natural_length(fiber, coil):
+    """Return the natural TCA length l* = l_t sin(alpha*) (m), Eq. (26)."""
+    return fiber.length * math.sin(coil.pitch_angle)
+
+
+def pitch_angle_of_length(length, fiber):
+    """Return the pitch angle alpha (rad) of a helix of axial length (m), Eq. (26)."""
+    return math.asin(min(max(length / fiber.length, -1.0), 1.0))
+
+
+def love_heated_pitch_sine(untwist, coil):
+    """Return sin(alpha^h) (-) from Love's equation (19) with fixed coils (24).
+
+        Delta theta_bar^h = cos(alpha*)/r* (sin alpha^h - sin alpha*)
+    """
+    return math.sin(coil.pitch_angle) + untwist * coil.radius / math.cos(coil.pitch_angle)
+
+
+def love_tension(sin_alpha, sin_alpha_h, section, coil):
+    """Return the tension F (N) balancing a helix at pitch sine ``sin_alpha``, Eq. (25).
+
+        F = cos^2 a* / r*^2 [GJ (sin a - sin a^h) - EI tan a (cos a - cos a^h)]
+    """
+    cos_a = math.sqrt(max(1.0 - sin_alpha * sin_alpha, 0.0))
+    cos_h = math.sqrt(max(1.0 - sin_alpha_h * sin_alpha_h, 0.0))
+    scale = math.cos(coil.pitch_angle) ** 2 / coil.radius ** 2
+    return scale * (section.GJ * (sin_alpha - sin_alpha_h)
+                    - section.EI * sin_alpha / cos_a * (cos_a - cos_h))
+
+
+def love_compliance(alpha, alpha_h, section, fiber, coil):
+    """Return 1/K_lv (m/N) of Eq. (27) in its linearised form (docs/decisions.md, D7).
+
+        K_lv = (GJ cos^2 a + EI sin^2 a) / (l_t r^2), r = r* cos a / cos a*
+    """
+    r = coil.radius * math.cos(alpha) / math.cos(coil.pitch_angle)
+    return fiber.length * r * r / (section.GJ * math.cos(alpha) ** 2
+                                   + section.EI * math.sin(alpha) ** 2)
+
+
+def love_kinematic_coefficient(fiber, coil):
+    """Return A_lv = l_t r* / cos(alpha*) (m^2), Eq. (27)."""
+    return fiber.length * coil.radius / math.cos(coil.pitch_angle)
+
+
+def cst_compliance(radius, alpha, section, fiber):
+    """Return 1/K_cst (m/N), Eq. (29).
+
+        1/K = l_t (r^2 cos^2 a / GJ + r^2 sin^2 a / EI + cos^2 a / GA + sin^2 a / EA)
+    """
+    c2 = math.cos(alpha) ** 2
+    s2 = 1.0 - c2
+    r2 = radius * radius
+    return fiber.length * (r2 * c2 / section.GJ + r2 * s2 / section.EI
+                           + c2 / section.GA + s2 / section.EA)
+
+
+def cst_kinematic_coefficient(radius, alpha, fiber):
+    """Return A_cst = l_t r cos(alpha) (m^2), Eq. (29)."""
+    return fiber.length * radius * math.cos(alpha)
+
+
+class KinetostaticModel:
+    """Base of the coil kinetostatic models (the f_rod of Eq. (18)).
+
+    Subclasses implement ``_tension_at(y, T, F_guess)``: the tension (N) at
+    elongation y (m) and temperature T (degC) for moduli evaluated at F_guess.
+    """
+
+    name = ''
+
+    def __init__(self, params):
+        self.params = params
+        self.natural_length = natural_length(params.fiber, params.coil)
+        self.ambient = params.thermal.ambient_temperature
+
+    def untwist(self, temperature):
+        """Return Delta theta_bar^h (rad/m) at temperature (degC), Eq. (4)."""
+        return unit_untwist(temperature, self.params.fiber, self.ambient)
+
+    def section(self, temperature, tension):
+        """Return the Section of Eq. (8) at temperature (degC) and tension (N)."""
+        return section_stiffness(temperature, tension, self.params)
+
+    def tension(self, elongation, temperature, force_guess=None):
+        """Return f_rod (N): the axial force at elongation (m) and temperature (degC).
+
+        The moduli depend on the force itself (eq. (11)); the fixed point
+        F = g(F) is solved by the secant method. With ``force_guess`` (N, e.g. the
+        previous step's tension in a time loop) a single pass g(force_guess) is
+        returned instead: the dynamics then converges to the fixed point over
+        steps, at a cost of one evaluation per step.
+        """
+        if force_guess is not None:
+            return self._tension_at(elongation, temperature, force_guess)
+        f0 = self._tension_at(elongation, temperature, 0.0)
+        r0 = self._tension_at(elongation, temperature, f0) - f0
+        f1 = f0 + r0
+        for _ in range(_MODULI_MAX_ITERATIONS):
+            r1 = self._tension_at(elongation, temperature, f1) - f1
+            if abs(r1) < _MODULI_TOLERANCE or r1 == r0:
+                break
+            f0, f1, r0 = f1, f1 - r1 * (f1 - f0) / (r1 - r0), r1
+        return f1
+
+    def stiffness(self, elongation, temperature):
+        """Return d f_rod / d y (N/m) at elongation (m) and temperature (degC)."""
+        h = _STIFFNESS_STEP
+        return (self.tension(elongation + h, temperature)
+                - self.tension(elongation - h, temperature)) / (2.0 * h)
+
+    def equilibrium_elongation(self, load, temperature, guess=None):
+        """Return y (m) with f_rod(y, T) = load (N); coil contact not applied.
+
+        Newton's method from ``guess`` (m), safeguarded by bisection within the
+        geometric range of eq. (26).
+        """
+        lo = -self.natural_length + 1e-9 * self.params.fiber.length
+        hi = self.params.fiber.length * 0.999 - self.natural_length
+        y = 0.0 if guess is None else min(max(guess, lo), hi)
+        for _ in range(60):
+            residual = self.tension(y, temperature) - load
+            if residual > 0.0:
+                hi = y
+            else:
+                lo = y
+            k = self.stiffness(y, temperature)
+            step = -residual / k if k > 0.0 else 0.5 * (hi - lo)
+            y_new = y + step
+            if not lo < y_new < hi:
+                y_new = 0.5 * (lo + hi)
+            if abs(y_new - y) < 1e-13:
+                return y_new
+            y = y_new
+        return y
+
+
+class LoveModel(KinetostaticModel):
+    """Love's equation with rod bending and torsion, Eqs. (19)-(27)."""
+
+    name = 'love'
+
+    def _tension_at(self, elongation, temperature, force):
+        p = self.params
+        sin_h = love_heated_pitch_sine(self.untwist(temperature), p.coil)
+        sin_a = (self.natural_length + elongation) / p.fiber.length
+        return love_tension(sin_a, sin_h, self.section(temperature, force), p.coil)
+
+    def free_elongation(self, temperature):
+        """Return the unloaded elongation (m) at temperature (degC): l^h - l*."""
+        sin_h = love_heated_pitch_sine(self.untwist(temperature), self.params.coil)
+        return self.params.fiber.length * sin_h - self.natural_length
+
+
+class CstModel(KinetostaticModel):
+    """Castigliano's second theorem, Eqs. (28)-(29), coefficients at the current alpha.
+
+        F = K_cst(alpha) (y - A_cst(alpha) Delta theta_bar^h)
+    """
+
+    name = 'cst'
+
+    def _tension_at(self, elongation, temperature, force):
+        p = self.params
+        alpha = pitch_angle_of_length(self.natural_length + elongation, p.fiber)
+        section = self.section(temperature, force)
+        compliance = cst_compliance(p.coil.radius, alpha, section, p.fiber)
+        a_cst = cst_kinematic_coefficient(p.coil.radius, alpha, p.fiber)
+        return (elongation - a_cst * self.untwist(temperature)) / compliance
+
+
+def contact_elongation(params):
+    """Return the elongation (m) at which neighbouring coils touch (Sec. V-D1).
+
+    The axial length cannot fall below l_t sin(alpha_min) (a hard stop, the
+    reading adopted in docs/decisions.md, D8). Returns -inf when contact is off or
+    the shape is conical (its coils pass each other).
+    """
+    c = params.coil
+    if not c.contact or c.shape != 'helix':
+        return -math.inf
+    return params.fiber.length * math.sin(c.min_pitch_angle) - natural_length(
+        params.fiber, c)
+
+
+_MODELS = {'love': LoveModel, 'cst': CstModel}
+
+
+def make_kinetostatic_model(params, name=None):
+    """Return the kinetostatic model ``name`` (rod | cst | love; default params.model)."""
+    name = name or params.model
+    if name == 'rod':
+        from tca_ros.model.rod_model import RodKinetostatics
+        return RodKinetostatics(params)
+    if name not in _MODELS:
+        raise ValueError(f"model = {name!r}: must be one of rod, cst, love")
+    return _MODELS[name](params)

@@ -1,0 +1,466 @@
+"""TCA parameters: one schema, loaded from ROS params-file YAML and validated.
+
+Every parameter has a dotted name (``fiber.radius``), a unit, an allowed range and
+a description. The same schema validates the YAML read by the CLI and declares the
+ROS parameters of the node, so a TCA is described in exactly one place: the files
+in ``config/``.
+
+A params file has the ROS 2 layout::
+
+    /**/tca:
+      ros__parameters:
+        fiber:
+          radius: 0.00021
+        ...
+
+Values missing from a file take the schema default (the paper's free-stroke TCA).
+"""
+from dataclasses import dataclass, field, fields, replace
+import math
+import os
+
+import yaml
+
+GRAVITY = 9.81  # m/s^2, g_r of Sec. III-C [1]
+
+#: Node name the params files are keyed by (any namespace, ``/**/tca``).
+NODE_NAME = 'tca'
+
+TCA_TYPES = ('self_coiled', 'free_stroke', 'conical')
+MODELS = ('rod', 'cst', 'love')
+SHAPES = ('helix', 'conical')
+
+
+class ParameterError(ValueError):
+    """A parameter value is outside its allowed set or range."""
+
+
+@dataclass(frozen=True)
+class ParamSpec:
+    """Schema entry of one parameter (name, default, unit, range, meaning)."""
+
+    name: str
+    default: object
+    unit: str
+    description: str
+    low: float = -math.inf
+    high: float = math.inf
+    choices: tuple = ()
+    length: int = 0  # > 0 for a fixed-length float list
+
+
+def _p(name, default, unit, description, low=-math.inf, high=math.inf, choices=(), length=0):
+    return ParamSpec(name, default, unit, description, low, high, tuple(choices), length)
+
+
+#: The parameter schema, in the order the node declares them.
+SCHEMA = (
+    _p('tca_type', 'free_stroke', '-', 'TCA kind (Table III).', choices=TCA_TYPES),
+    _p('model', 'rod', '-', 'Coil kinetostatic model: Cosserat rod, CST or Love.',
+       choices=MODELS),
+    # Twisted fiber (Table II)
+    _p('fiber.length', 0.175, 'm', 'Twisted fiber length l_t.', 1e-3, 10.0),
+    _p('fiber.radius', 0.21e-3, 'm', 'Twisted fiber radius r_t* at T0.', 1e-6, 5e-3),
+    _p('fiber.bias_angle_deg', 40.0, 'deg', 'Twisted fiber bias (pitch) angle alpha_t.',
+       1.0, 89.0),
+    _p('fiber.volume_fraction', 0.35, '-', 'Volume fraction V_f of eq. (9).', 0.01, 1.0),
+    _p('fiber.inserted_twist', 4710.0, 'rad/m', 'Inserted twist per length theta*/l_t.',
+       0.0, 1e5),
+    _p('fiber.density', 1300.0, 'kg/m^3', 'Fiber density rho.', 100.0, 20000.0),
+    _p('fiber.specific_heat', 1267.0, 'J/(kg K)', 'Specific heat c_p.', 10.0, 1e4),
+    _p('fiber.gamma_coefficients', [3.54e-6, -6.705e-5, 1.0017], '1/degC^2, 1/degC, -',
+       'Radius ratio Gamma(T) = c2 T^2 + c1 T + c0 (T in degC), [c2, c1, c0].', length=3),
+    _p('fiber.heated_radius_in_section', True, '-',
+       'Use the heated radius r_t Gamma(T)/Gamma(T0) in A, I and J (authors\' code).'),
+    # Coil reference state (Table III)
+    _p('coil.shape', 'helix', '-', 'Reference centreline: helix (12) or conical spiral (36).',
+       choices=SHAPES),
+    _p('coil.radius', 0.408e-3, 'm', 'Coil radius r* of the helix.', 1e-5, 0.1),
+    _p('coil.pitch_angle_deg', 22.42, 'deg', 'Coil pitch angle alpha* of the helix.',
+       0.5, 89.0),
+    _p('coil.spiral_pitch', 10.6e-3, 'm', 'Conical spiral pitch p_c (a = 2 pi / p_c).',
+       1e-4, 1.0),
+    _p('coil.cone_angle_deg', 12.0, 'deg', 'Conical spiral cone angle (b = tan(angle/2)).',
+       0.1, 170.0),
+    _p('coil.contact', True, '-', 'Stop contraction when neighbouring coils touch.'),
+    _p('coil.min_pitch_angle_deg', 12.0, 'deg',
+       'Pitch angle alpha_min at which coils touch (Sec. V-D1).', 0.0, 89.0),
+    # Thermal model, eq. (1)
+    _p('thermal.convection_coefficient', 23.0, 'W/(m^2 K)', 'Natural convection h.',
+       0.0, 1e4),
+    _p('thermal.surface_factor', 2.5, '-', 'Surface roughness factor c_s.', 0.1, 100.0),
+    _p('thermal.ambient_temperature_degc', 25.0, 'degC', 'Ambient T_inf = T0.',
+       -50.0, 100.0),
+    # Moduli, eqs. (9)-(11)
+    _p('moduli.youngs_modulus', 1.2e9, 'Pa', 'Measured E at T0, no load (scales eq. (9)).',
+       1e6, 1e12),
+    _p('moduli.shear_modulus', 0.22e9, 'Pa', 'Measured G at T0, no load (scales eq. (10)).',
+       1e6, 1e12),
+    _p('moduli.fiber_modulus', 3.9e9, 'Pa', 'Monofilament modulus E_f0 at T0.', 1e6, 1e12),
+    _p('moduli.fiber_softening', 1.1e6, 'Pa/K', 'Fall of E_f per kelvin (eq. (11)).',
+       0.0, 1e9),
+    _p('moduli.load_coefficients', [3.24e-4, -0.027, 1.0], '-',
+       'lambda(tau) = mu2 tau^2 + mu1 tau + mu0 of eq. (11), [mu2, mu1, mu0].', length=3),
+    _p('moduli.max_torsion_strain', 171.0, '1/m', 'Calibrated range of tau in eq. (11).',
+       0.0, 1e5),
+    _p('moduli.fiber_modulus_floor', 0.1, '-', 'Lower bound of E_f / E_f0.', 0.0, 1.0),
+    _p('moduli.constant', False, '-', 'Use constant E and G (no T or load dependence).'),
+    # Dynamics, eq. (18)
+    _p('dynamics.mass', 0.03, 'kg', 'Moving mass m at the free end.', 0.0, 1e3),
+    _p('dynamics.load', 0.2943, 'N', 'External tensile force on the free end at start.',
+       0.0, 1e3),
+    _p('dynamics.damping', 0.5, 'N s/m', 'Damping coefficient b_t.', 0.0, 1e4),
+    # Electrical self-sensing
+    _p('electrical.resistance', 25.0, 'ohm', 'Resistance R0 at T0 and loaded length.',
+       1e-3, 1e6),
+    _p('electrical.temperature_coefficient', -1.0e-3, '1/K', 'beta_T of R(T, x).',
+       -0.1, 0.1),
+    _p('electrical.strain_coefficient', -0.2, '-', 'beta_x of R(T, x) (x / l0).', -10.0, 10.0),
+    # Model extensions (all neutral by default); see tca_ros.model.effects
+    _p('effects.creep_compliance', 0.0, 'm/N', 'Creep: Kelvin-Voigt compliance.', 0.0, 10.0),
+    _p('effects.creep_time_constant', 30.0, 's', 'Creep: retardation time.', 1e-2, 1e6),
+    _p('effects.hysteresis_width', 0.0, 'K', 'Hysteresis: play width on temperature.',
+       0.0, 100.0),
+    _p('effects.emissivity', 0.0, '-', 'Radiation: emissivity of the fiber surface.',
+       0.0, 1.0),
+    _p('effects.convection_exponent', 0.0, '-',
+       'Nonlinear convection: h (|T - T_inf| / dT_ref)^n.', 0.0, 1.0),
+    _p('effects.convection_reference_dt', 50.0, 'K', 'Nonlinear convection: dT_ref.',
+       1.0, 1000.0),
+    _p('effects.extra_softening', 0.0, 'Pa/K', 'Modulus softening: added fall of E_f.',
+       0.0, 1e8),
+    _p('effects.sensor_lag', 0.0, 's', 'Sensor lag: displacement sensor time constant.',
+       0.0, 100.0),
+    _p('effects.ambient_offset', 0.0, 'K', 'Ambient offset: true minus nominal ambient.',
+       -50.0, 50.0),
+    _p('effects.power_loss_fraction', 0.0, '-', 'Power loss: fraction not heating the fiber.',
+       0.0, 0.99),
+)
+
+SPECS = {s.name: s for s in SCHEMA}
+
+
+def check_value(spec, value):
+    """Return ``value`` coerced to the spec's type, or raise ParameterError.
+
+    The message is one line naming the parameter, the value and what is allowed.
+    """
+    default = spec.default
+    if isinstance(default, bool):
+        if isinstance(value, bool):
+            return value
+        raise ParameterError(f"parameter '{spec.name}' = {value!r}: must be true or false")
+    if isinstance(default, str):
+        if isinstance(value, str) and (not spec.choices or value in spec.choices):
+            return value
+        raise ParameterError(
+            f"parameter '{spec.name}' = {value!r}: must be one of {', '.join(spec.choices)}")
+    if isinstance(default, list):
+        ok = (isinstance(value, (list, tuple)) and len(value) == spec.length
+              and all(_is_real(v) and math.isfinite(v) for v in value))
+        if not ok:
+            raise ParameterError(
+                f"parameter '{spec.name}' = {value!r}: must be a list of {spec.length} "
+                f'finite numbers ({spec.unit})')
+        return [float(v) for v in value]
+    if not _is_real(value) or not math.isfinite(value) or not (
+            spec.low <= value <= spec.high):
+        raise ParameterError(
+            f"parameter '{spec.name}' = {value!r}: must be a finite number in "
+            f'[{spec.low:g}, {spec.high:g}] {spec.unit}')
+    return float(value)
+
+
+def _is_real(value):
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
+@dataclass(frozen=True)
+class FiberParams:
+    """Twisted fiber (Table II). Lengths in m, angles in rad, SI throughout."""
+
+    length: float
+    radius: float
+    bias_angle: float
+    volume_fraction: float
+    inserted_twist: float
+    density: float
+    specific_heat: float
+    gamma_coefficients: tuple
+    heated_radius_in_section: bool
+
+
+@dataclass(frozen=True)
+class CoilParams:
+    """Coil reference state (Table III): radius (m), angles (rad)."""
+
+    shape: str
+    radius: float
+    pitch_angle: float
+    spiral_pitch: float
+    cone_angle: float
+    contact: bool
+    min_pitch_angle: float
+
+
+@dataclass(frozen=True)
+class ThermalParams:
+    """Thermal model, eq. (1): h (W/(m^2 K)), c_s (-), ambient (degC)."""
+
+    convection_coefficient: float
+    surface_factor: float
+    ambient_temperature: float
+
+
+@dataclass(frozen=True)
+class ModuliParams:
+    """Moduli, eqs. (9)-(11): E0, G0, E_f0 (Pa), softening (Pa/K), lambda coefficients."""
+
+    youngs_modulus: float
+    shear_modulus: float
+    fiber_modulus: float
+    fiber_softening: float
+    load_coefficients: tuple
+    max_torsion_strain: float
+    fiber_modulus_floor: float
+    constant: bool
+
+
+@dataclass(frozen=True)
+class DynamicsParams:
+    """Dynamics, eq. (18): mass (kg), load (N, tensile), damping b_t (N s/m)."""
+
+    mass: float
+    load: float
+    damping: float
+
+
+@dataclass(frozen=True)
+class ElectricalParams:
+    """Resistance R = R0 (1 + beta_T (T - T0) + beta_x x / l0): R0 (ohm), beta_T (1/K)."""
+
+    resistance: float
+    temperature_coefficient: float
+    strain_coefficient: float
+
+
+@dataclass(frozen=True)
+class EffectParams:
+    """Extensions of the nominal model; each is neutral at its default (see effects.py)."""
+
+    creep_compliance: float = 0.0
+    creep_time_constant: float = 30.0
+    hysteresis_width: float = 0.0
+    emissivity: float = 0.0
+    convection_exponent: float = 0.0
+    convection_reference_dt: float = 50.0
+    extra_softening: float = 0.0
+    sensor_lag: float = 0.0
+    ambient_offset: float = 0.0
+    power_loss_fraction: float = 0.0
+
+
+@dataclass(frozen=True)
+class TcaParams:
+    """All parameters of one TCA, SI units (temperatures in degC)."""
+
+    tca_type: str
+    model: str
+    fiber: FiberParams
+    coil: CoilParams
+    thermal: ThermalParams
+    moduli: ModuliParams
+    dynamics: DynamicsParams
+    electrical: ElectricalParams
+    effects: EffectParams = field(default_factory=EffectParams)
+    source: str = ''
+
+    def with_values(self, **dotted):
+        """Return a copy with dotted-name overrides, e.g. ``{'dynamics.mass': 0.05}``."""
+        flat = to_flat_dict(self)
+        for key, value in dotted.items():
+            flat[key.replace('__', '.')] = value
+        return from_flat_dict(flat, source=self.source)
+
+
+_DEG = {'bias_angle_deg', 'pitch_angle_deg', 'cone_angle_deg', 'min_pitch_angle_deg'}
+_GROUPS = {'fiber': FiberParams, 'coil': CoilParams, 'thermal': ThermalParams,
+           'moduli': ModuliParams, 'dynamics': DynamicsParams,
+           'electrical': ElectricalParams, 'effects': EffectParams}
+
+
+def _field_name(key):
+    if key in _DEG:
+        return key[:-4]
+    if key.endswith('_degc'):
+        return key[:-5]
+    return key
+
+
+def from_flat_dict(values, source=''):
+    """Build validated TcaParams from ``{dotted_name: value}``; defaults fill gaps.
+
+    Raises
+    ------
+    ParameterError
+        One line naming the first bad or unknown parameter, its value, what is allowed.
+    """
+    unknown = sorted(set(values) - set(SPECS))
+    if unknown:
+        raise ParameterError(
+            f"parameter '{unknown[0]}' = {values[unknown[0]]!r}: unknown parameter "
+            f'(known: see config/free_stroke.yaml)')
+    checked = {s.name: check_value(s, values.get(s.name, s.default)) for s in SCHEMA}
+    groups = {}
+    for group, cls in _GROUPS.items():
+        kwargs = {}
+        for name, value in checked.items():
+            head, _, key = name.partition('.')
+            if head != group:
+                continue
+            if key in _DEG:
+                value = math.radians(value)
+            if isinstance(value, list):
+                value = tuple(value)
+            kwargs[_field_name(key)] = value
+        groups[group] = cls(**kwargs)
+    params = TcaParams(tca_type=checked['tca_type'], model=checked['model'],
+                       source=source, **groups)
+    _check_consistency(params)
+    return params
+
+
+def _check_consistency(p):
+    """Cross-parameter rules that a single range cannot express."""
+    if p.coil.contact and p.coil.shape == 'helix' and p.coil.min_pitch_angle >= p.coil.pitch_angle:
+        raise ParameterError(
+            f"parameter 'coil.min_pitch_angle_deg' = {math.degrees(p.coil.min_pitch_angle):g}: "
+            f'must be below coil.pitch_angle_deg ({math.degrees(p.coil.pitch_angle):g})')
+    c2, c1, c0 = p.fiber.gamma_coefficients
+    t0 = p.thermal.ambient_temperature
+    if c2 * t0 * t0 + c1 * t0 + c0 <= 0.0:
+        raise ParameterError(
+            f"parameter 'fiber.gamma_coefficients' = {list(p.fiber.gamma_coefficients)}: "
+            f'Gamma(T0) must be positive')
+
+
+def to_flat_dict(params):
+    """Return ``{dotted_name: value}`` in schema units (degrees, degC) for ``params``."""
+    out = {'tca_type': params.tca_type, 'model': params.model}
+    for group in _GROUPS:
+        obj = getattr(params, group)
+        for spec in SCHEMA:
+            head, _, key = spec.name.partition('.')
+            if head != group:
+                continue
+            value = getattr(obj, _field_name(key))
+            if key in _DEG:
+                value = math.degrees(value)
+            if isinstance(value, tuple):
+                value = list(value)
+            out[spec.name] = value
+    return out
+
+
+def flatten(tree, prefix=''):
+    """Flatten nested dicts to dotted names, as rclpy does for params files."""
+    out = {}
+    for key, value in tree.items():
+        name = f'{prefix}{key}'
+        if isinstance(value, dict):
+            out.update(flatten(value, name + '.'))
+        else:
+            out[name] = value
+    return out
+
+
+def ros_parameters(document, path='<yaml>'):
+    """Return the flat ``ros__parameters`` of the ``tca`` node in a params-file document."""
+    if not isinstance(document, dict):
+        raise ParameterError(f'{path}: not a ROS params file (top level must be a mapping)')
+    for node_key, body in document.items():
+        name = str(node_key).rstrip('/').rsplit('/', 1)[-1]
+        if name in (NODE_NAME, '**', '*') and isinstance(body, dict) \
+                and 'ros__parameters' in body:
+            return flatten(body['ros__parameters'] or {})
+    raise ParameterError(
+        f"{path}: no '/**/tca: ros__parameters:' section (ROS 2 params-file layout)")
+
+
+def config_dir():
+    """Return the directory holding the shipped params files."""
+    here = os.path.dirname(os.path.abspath(__file__))
+    candidates = [os.path.join(here, '..', '..', 'config')]
+    prefix = os.environ.get('VIRTUAL_ENV') or ''
+    candidates.append(os.path.join(prefix, 'share', 'tca_ros', 'config'))
+    for prefix in os.environ.get('AMENT_PREFIX_PATH', '').split(os.pathsep):
+        if prefix:
+            candidates.append(os.path.join(prefix, 'share', 'tca_ros', 'config'))
+    for c in candidates:
+        if os.path.isdir(c):
+            return os.path.normpath(c)
+    return os.path.normpath(candidates[0])
+
+
+def resolve_config(name_or_path):
+    """Return the path of a params file given a path or a shipped name (``free_stroke``)."""
+    if os.path.isfile(name_or_path):
+        return name_or_path
+    stem = os.path.splitext(os.path.basename(name_or_path))[0]
+    path = os.path.join(config_dir(), stem + '.yaml')
+    if os.path.isfile(path):
+        return path
+    raise ParameterError(
+        f"config '{name_or_path}': no such file, and not a shipped name "
+        f'({", ".join(shipped_configs())})')
+
+
+def shipped_configs():
+    """Return the names of the params files in ``config/``."""
+    d = config_dir()
+    if not os.path.isdir(d):
+        return []
+    return sorted(os.path.splitext(f)[0] for f in os.listdir(d) if f.endswith('.yaml'))
+
+
+def load_params(name_or_path, **overrides):
+    """Load and validate a params file (path or shipped name); apply dotted overrides."""
+    path = resolve_config(name_or_path)
+    try:
+        with open(path, encoding='utf-8') as fh:
+            document = yaml.safe_load(fh)
+    except yaml.YAMLError as exc:
+        raise ParameterError(f'{path}: invalid YAML ({str(exc).splitlines()[0]})') from None
+    values = ros_parameters(document, path)
+    values.update({k.replace('__', '.'): v for k, v in overrides.items()})
+    try:
+        return from_flat_dict(values, source=path)
+    except ParameterError as exc:
+        raise ParameterError(f'{path}: {exc}') from None
+
+
+def dump_params(params, path, header=''):
+    """Write ``params`` as a ROS params file readable by the node and the CLI."""
+    tree = {}
+    for name, value in to_flat_dict(params).items():
+        node = tree
+        *heads, leaf = name.split('.')
+        for h in heads:
+            node = node.setdefault(h, {})
+        node[leaf] = value
+    text = yaml.safe_dump({f'/**/{NODE_NAME}': {'ros__parameters': tree}},
+                          sort_keys=False, default_flow_style=None)
+    with open(path, 'w', encoding='utf-8') as fh:
+        if header:
+            fh.write(''.join(f'# {line}\n' for line in header.splitlines()))
+        fh.write(text)
+
+
+def with_effects(params, **effects):
+    """Return a copy of ``params`` with effect parameters replaced (SI names)."""
+    return replace(params, effects=replace(params.effects, **effects))
+
+
+def effect_field_names():
+    """Return the field names of EffectParams."""
+    return [f.name for f in fields(EffectParams)]
