@@ -187,6 +187,11 @@ class TcaSimulator:
         model = self.kinetostatics
         mass, damping = p.dynamics.mass, p.dynamics.damping
         q, y_c = s.elongation, s.creep
+        # eq. (1) first; the explicit step below still uses f_rod(q_i, T_i) (s.tension),
+        # the implicit quasi-static steps use T_{i+1}
+        s.temperature = self._thermal_step(s.temperature, power, h)
+        s.actuation_temperature = fx.play_operator(
+            s.temperature, s.actuation_temperature, p.effects.hysteresis_width)
         if mass > 0.0:
             q_next = central_difference_step(q, s.previous_elongation, load - s.tension,
                                              mass, damping, h)
@@ -204,9 +209,6 @@ class TcaSimulator:
         s.velocity = (q_next - q) / h
         if p.effects.creep_compliance > 0.0:
             s.creep = y_c + h * fx.creep_rate(y_c, s.tension, p.effects)
-        s.temperature = self._thermal_step(s.temperature, power, h)
-        s.actuation_temperature = fx.play_operator(
-            s.temperature, s.actuation_temperature, p.effects.hysteresis_width)
         s.time += h
         s.power, s.load = power, load
         s.tension = model.tension(s.elongation - s.creep, s.actuation_temperature, s.tension)
