@@ -12,7 +12,7 @@ import time as wallclock
 
 import numpy as np
 
-from tca_ros.model.params import GRAVITY, MODELS, ParameterError, load_params
+from tca_ros.model.params import GRAVITY, load_params, MODELS, ParameterError
 
 EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT = 0, 1, 2
 
@@ -208,13 +208,13 @@ def build_parser():
                              'conical)')
         if model:
             sp.add_argument('--model', choices=MODELS, default=None,
-                            help='kinetostatic model (default: the config\'s model)')
+                            help="kinetostatic model (default: the config's model)")
 
     sp = sub.add_parser('statics', formatter_class=fmt,
                         help='displacement (m) vs temperature (degC) under a hanging mass')
     common(sp)
     sp.add_argument('--mass', type=float, default=None,
-                    help='hanging mass (kg); default: the config\'s dynamics.mass')
+                    help="hanging mass (kg); default: the config's dynamics.mass")
     sp.add_argument('--tmin', type=float, default=25.0, help='first temperature (degC)')
     sp.add_argument('--tmax', type=float, default=160.0, help='last temperature (degC)')
     sp.add_argument('--tstep', type=float, default=5.0, help='temperature step (K)')

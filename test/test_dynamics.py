@@ -52,7 +52,7 @@ def test_large_step_is_split_into_stable_substeps(free_stroke):
 
 def test_unstable_mass_gives_clear_error(free_stroke):
     light = free_stroke.with_values(**{'dynamics.mass': 1e-11})
-    with pytest.raises(StabilityError, match=r"dynamics.mass = 1e-11 kg.*at most 1000"):
+    with pytest.raises(StabilityError, match=r'dynamics.mass = 1e-11 kg.*at most 1000'):
         TcaSimulator(light, model='cst', dt=1e-2)
 
 

@@ -2,7 +2,7 @@
 import subprocess
 import sys
 
-CHECK = '''
+CHECK = """
 import sys
 import tca_ros.model.dynamics, tca_ros.model.kinetostatics, tca_ros.model.effects
 try:
@@ -12,7 +12,7 @@ except ImportError:
 bad = sorted(m for m in sys.modules if m.split('.')[0] in ('rclpy', 'matplotlib')
              or m.startswith(('tca_ros.node', 'tca_ros.cli', 'tca_ros.diagnosis')))
 print(','.join(bad))
-'''
+"""
 
 
 def test_physics_layers_import_neither_rclpy_nor_matplotlib():

@@ -34,8 +34,8 @@ def test_gamma_polynomial_and_untwist(free_stroke):
     assert fiber.unit_untwist(25.0, f, 25.0) == 0.0
     # 4710 (1.00223625 / 1.081596 - 1) rad/m by hand
     assert fiber.unit_untwist(160.0, f, 25.0) == pytest.approx(-345.61, rel=1e-4)
-    assert fiber.heated_fiber_radius(160.0, f, 25.0) == pytest.approx(0.21e-3 * 1.07918,
-                                                                     rel=1e-5)
+    r_hot = fiber.heated_fiber_radius(160.0, f, 25.0)
+    assert r_hot == pytest.approx(0.21e-3 * 1.07918, rel=1e-5)
 
 
 def test_yarn_moduli_as_printed_and_scaled(free_stroke):

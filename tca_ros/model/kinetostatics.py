@@ -223,5 +223,5 @@ def make_kinetostatic_model(params, name=None):
         from tca_ros.model.rod_model import RodKinetostatics
         return RodKinetostatics(params)
     if name not in _MODELS:
-        raise ValueError(f"model = {name!r}: must be one of rod, cst, love")
+        raise ValueError(f'model = {name!r}: must be one of rod, cst, love')
     return _MODELS[name](params)

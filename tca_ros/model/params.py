@@ -71,7 +71,7 @@ SCHEMA = (
     _p('fiber.gamma_coefficients', [3.54e-6, -6.705e-5, 1.0017], '1/degC^2, 1/degC, -',
        'Radius ratio Gamma(T) = c2 T^2 + c1 T + c0 (T in degC), [c2, c1, c0].', length=3),
     _p('fiber.heated_radius_in_section', True, '-',
-       'Use the heated radius r_t Gamma(T)/Gamma(T0) in A, I and J (authors\' code).'),
+       'Use the heated radius r_t Gamma(T)/Gamma(T0) in A, I and J (as the authors do).'),
     # Coil reference state (Table III)
     _p('coil.shape', 'helix', '-', 'Reference centreline: helix (12) or conical spiral (36).',
        choices=SHAPES),
