@@ -99,19 +99,67 @@ def cmd_statics(args, out):
     if args.mass is not None and not (math.isfinite(args.mass) and args.mass >= 0.0):
         raise InputError(f'--mass = {args.mass!r}: must be a finite mass >= 0 kg')
     temps = np.arange(args.tmin, args.tmax + 0.5 * args.tstep, args.tstep)
-    mass = p.dynamics.mass if args.mass is None else args.mass
+    load = p.dynamics.load if args.mass is None else args.mass * GRAVITY
     if p.coil.shape == 'conical':
-        from tca_ros.model.rod_model import conical_statics
-        result = conical_statics(p, temps, load=mass * GRAVITY, shape_path=args.shape)
-        out.write('temperature,end_height\n')
-        for temp, z in zip(temps, result):
-            out.write(f'{temp:.6g},{z:.9g}\n')
-        return EXIT_OK
-    disp = static_displacement(p, mass * GRAVITY, temps)
+        return _conical_statics(p, temps, load, args, out)
+    if args.shape:
+        raise InputError(f'--shape = {args.shape!r}: only for a conical TCA '
+                         f'(coil.shape: conical), this config is a {p.coil.shape}')
+    disp = static_displacement(p, load, temps)
     out.write('temperature,displacement\n')
     for temp, x in zip(temps, disp):
         out.write(f'{temp:.6g},{x:.9g}\n')
     return EXIT_OK
+
+
+def _conical_statics(p, temps, load, args, out):
+    """Print CSV temperature,end_height (degC, m); optionally write the shapes."""
+    from tca_ros.model.rod_model import conical_shapes
+    if p.model != 'rod':
+        raise InputError(f'--model = {p.model!r}: a conical TCA needs the rod model '
+                         '(Love and CST assume a uniform helix)')
+    shapes = conical_shapes(p, temps, load=load)
+    out.write('temperature,end_height\n')
+    for temp, (_, xyz) in zip(temps, shapes):
+        out.write(f'{temp:.6g},{xyz[2, -1]:.9g}\n')
+    if args.shape:
+        write_shapes(args.shape, temps, shapes)
+    return EXIT_OK
+
+
+def write_shapes(path, temps, shapes):
+    """Write centrelines as CSV temperature,s,x,y,z (degC, m) and a PNG beside it."""
+    with open(path, 'w', encoding='utf-8') as fh:
+        fh.write('temperature,s,x,y,z\n')
+        for temp, (s, xyz) in zip(temps, shapes):
+            for j in range(s.size):
+                fh.write(f'{temp:.6g},{s[j]:.9g},{xyz[0, j]:.9g},{xyz[1, j]:.9g},'
+                         f'{xyz[2, j]:.9g}\n')
+    import matplotlib
+    matplotlib.use('Agg')
+    import matplotlib.pyplot as plt
+    fig = plt.figure(figsize=(9, 4.5))
+    ax3 = fig.add_subplot(1, 2, 1, projection='3d')
+    ax2 = fig.add_subplot(1, 2, 2)
+    picks = sorted(set(np.linspace(0, len(temps) - 1, min(5, len(temps))).astype(int)))
+    for k, i in enumerate(picks):
+        xyz = shapes[i][1] * 1e3
+        color = plt.cm.coolwarm(k / max(len(picks) - 1, 1))
+        ax3.plot(xyz[0], xyz[1], xyz[2], color=color, lw=0.8, label=f'{temps[i]:.0f} degC')
+        ax2.plot(xyz[0], xyz[2], color=color, lw=0.8, label=f'{temps[i]:.0f} degC')
+        ax2.plot(xyz[0, -1], xyz[2, -1], 'o', color=color)
+    ax2.plot(0.0, 0.0, 'k^', label='clamp')
+    ax3.set_xlabel('x (mm)')
+    ax3.set_ylabel('y (mm)')
+    ax3.set_zlabel('z (mm)')
+    ax2.set_xlabel('x (mm)')
+    ax2.set_ylabel('z (mm)')
+    ax2.set_aspect('equal')
+    ax2.legend(fontsize=7)
+    ax2.set_title('side view: the free end (o) passes the clamp')
+    fig.tight_layout()
+    fig.savefig(os.path.splitext(path)[0] + '.png', dpi=110)
+    plt.close(fig)
 
 
 def cmd_simulate(args, out):
@@ -214,7 +262,7 @@ def build_parser():
                         help='displacement (m) vs temperature (degC) under a hanging mass')
     common(sp)
     sp.add_argument('--mass', type=float, default=None,
-                    help="hanging mass (kg); default: the config's dynamics.mass")
+                    help="hanging mass (kg); default: the config's dynamics.load / g")
     sp.add_argument('--tmin', type=float, default=25.0, help='first temperature (degC)')
     sp.add_argument('--tmax', type=float, default=160.0, help='last temperature (degC)')
     sp.add_argument('--tstep', type=float, default=5.0, help='temperature step (K)')

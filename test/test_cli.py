@@ -80,3 +80,25 @@ def test_bench_prints_a_row_per_model():
     assert code == 0
     rows = [line.split()[0] for line in text.splitlines()[2:]]
     assert {'cst', 'love'} <= set(rows)
+
+
+def test_conical_statics_end_passes_the_clamp_and_writes_shapes(tmp_path):
+    shape = tmp_path / 'shape.csv'
+    code, text = run(['statics', '--config', 'conical', '--tstep', '67.5',
+                      '--shape', str(shape)])
+    assert code == 0
+    rows = [line.split(',') for line in text.strip().splitlines()]
+    assert rows[0] == ['temperature', 'end_height']
+    heights = [float(r[1]) for r in rows[1:]]
+    assert len(heights) == 3 and heights[0] > 0.05 and heights[-1] < 0.0  # dual-side stroke
+    lines = shape.read_text().splitlines()
+    assert lines[0] == 'temperature,s,x,y,z'
+    assert {float(line.split(',')[0]) for line in lines[1:]} == {25.0, 92.5, 160.0}
+    assert (tmp_path / 'shape.png').stat().st_size > 10000
+
+
+def test_conical_needs_rod_and_shape_needs_conical(capsys):
+    assert run(['statics', '--config', 'conical', '--model', 'cst'])[0] == 2
+    assert 'needs the rod model' in capsys.readouterr().err
+    assert run(['statics', '--model', 'cst', '--shape', 'x.csv'])[0] == 2
+    assert 'only for a conical TCA' in capsys.readouterr().err

@@ -56,7 +56,7 @@ def _p(name, default, unit, description, low=-math.inf, high=math.inf, choices=(
 #: The parameter schema, in the order the node declares them.
 SCHEMA = (
     _p('tca_type', 'free_stroke', '-', 'TCA kind (Table III).', choices=TCA_TYPES),
-    _p('model', 'cst', '-', 'Coil kinetostatic model: Cosserat rod, CST or Love.',
+    _p('model', 'rod', '-', 'Coil kinetostatic model: Cosserat rod, CST or Love.',
        choices=MODELS),
     # Twisted fiber (Table II)
     _p('fiber.length', 0.175, 'm', 'Twisted fiber length l_t.', 1e-3, 10.0),
