@@ -238,7 +238,7 @@ def cmd_demo(args, out):
         except ImportError:
             out.write('(closed-loop node demo not available in this build)\n')
             return EXIT_OK
-        run_demo(args.out, sim_seconds=args.seconds)
+        run_demo(args.out, sim_seconds=args.seconds, config=args.config)
     return EXIT_OK
 
 

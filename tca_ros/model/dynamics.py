@@ -97,10 +97,8 @@ class TcaSimulator:
     """
 
     def __init__(self, params, model=None, dt=1e-3, kinetostatics=None):
-        if not (math.isfinite(dt) and dt > 0.0):
-            raise ValueError(f'dt = {dt!r}: must be a positive number of seconds')
         self.params = params
-        self.dt = dt
+        self.dt = self._checked_dt(dt)
         self.kinetostatics = kinetostatics or make_kinetostatic_model(params, model)
         self._heat_capacity = heat_capacity(params.fiber)
         self._conductance = thermal_conductance(params.fiber, params.thermal)
@@ -143,6 +141,18 @@ class TcaSimulator:
         """
         y = self.kinetostatics.equilibrium_elongation(load, temperature)
         return max(y, self._contact)
+
+    @staticmethod
+    def _checked_dt(dt):
+        if not (isinstance(dt, (int, float)) and math.isfinite(dt) and dt > 0.0):
+            raise ValueError(f'dt = {dt!r}: must be a positive number of seconds')
+        return float(dt)
+
+    def set_dt(self, dt):
+        """Change the physics step (s), keeping the state; re-plan the substeps."""
+        self.dt = self._checked_dt(dt)
+        self._substeps = self.check_step()
+        self._steps_since_check = 0
 
     def stability_limit(self):
         """Return the central-difference stability limit 2/omega (s) at the state."""
@@ -300,7 +310,8 @@ def simulate(params, time, power, load=None, model=None, physics_rate=1000.0,
     for i in range(1, time.size):
         span = time[i] - time[i - 1]
         steps = max(1, int(round(span / dt)))
-        sim.dt = span / steps
+        if abs(sim.dt - span / steps) > 1e-12 * sim.dt:
+            sim.set_dt(span / steps)
         for _ in range(steps):
             state = sim.step(power[i - 1], load[i - 1])
         out[:, i] = _sample(state)

@@ -220,8 +220,9 @@ def make_kinetostatic_model(params, name=None):
     """Return the kinetostatic model ``name`` (rod | cst | love; default params.model)."""
     name = name or params.model
     if name == 'rod':
-        from tca_ros.model.rod_model import RodKinetostatics
-        return RodKinetostatics(params)
+        # one table per TCA, shared by every simulator and the centreline
+        from tca_ros.model.rod_model import cached_rod_model
+        return cached_rod_model(params)
     if name not in _MODELS:
         raise ValueError(f'model = {name!r}: must be one of rod, cst, love')
     return _MODELS[name](params)

@@ -283,7 +283,8 @@ class RodKinetostatics(KinetostaticModel):
 
 
 @functools.lru_cache(maxsize=8)
-def _cached_model(params):
+def cached_rod_model(params):
+    """Return the RodKinetostatics of ``params``, built once per parameter set."""
     return RodKinetostatics(params)
 
 
@@ -316,7 +317,7 @@ def centreline(params, elongation, temperature, n_points=200):
     if params.coil.shape != 'helix':
         ref = rod_reference(params, temperature)
         return integrate_strains(ref, np.linspace(0.0, ref.length, int(n_points)))[0]
-    model = _cached_model(params)
+    model = cached_rod_model(params)
     force = model.tension(elongation, temperature)
     eq = _helix_state(params, temperature, force)
     return helix_centreline(eq, params.fiber.length, int(n_points))
