@@ -1,0 +1,170 @@
+"""Benchmark of tca_node (printed, not asserted).
+
+1. CPU use of the node at 1 kHz physics / 100 Hz publishing, wall clock (% of one core).
+2. Fastest real-time factor with publish_clock (real_time_factor 0): the node alone (its
+   own shutdown line), with a client reading /clock, and in lockstep with tca_pid.
+3. Command-to-feedback latency: power_cmd published -> the applied ``power`` received.
+
+Usage: python bench/bench_node.py [--model rod|cst|love] [--seconds 10]
+"""
+import argparse
+import math
+import os
+import pathlib
+import random
+import re
+import statistics
+import sys
+import tempfile
+import time
+
+HERE = pathlib.Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE.parent / 'test'))
+os.environ.setdefault('TCA_TEST_DOMAIN', str(random.randint(100, 150)))
+
+from rclpy.qos import QoSProfile, ReliabilityPolicy  # noqa: E402
+from rosgraph_msgs.msg import Clock  # noqa: E402
+from std_msgs.msg import Float64  # noqa: E402
+
+from test_node_harness import (  # noqa: E402, I100
+    CONFIG, module_command, NodeProcess, Probe)
+
+TICKS_PER_SECOND = os.sysconf('SC_CLK_TCK')  # /proc/<pid>/stat time unit
+
+
+def _cpu_seconds(pid):
+    fields = pathlib.Path(f'/proc/{pid}/stat').read_text().rsplit(')', 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / TICKS_PER_SECOND  # utime + stime
+
+
+def _start(log_dir, model, *args, name='tca'):
+    node = NodeProcess(module_command('tca_ros.node', [
+        '--params-file', CONFIG, '-p', f'model:={model}', *args]),
+        pathlib.Path(log_dir) / f'{name}.log')
+    node.wait_for_log('tca node ready', timeout=120.0)
+    return node
+
+
+def bench_cpu(log_dir, model, seconds):
+    """Return the node's CPU use (fraction of one core) while a client reads it."""
+    node = _start(log_dir, model, name='cpu')
+    probe = Probe()
+    rows = probe.record('power', Float64)
+    try:
+        probe.spin_until(lambda: rows, 20.0)
+        cpu0, t0 = _cpu_seconds(node.proc.pid), time.monotonic()
+        while time.monotonic() - t0 < seconds:
+            probe.publish('power_cmd', Float64(data=0.5))
+            probe.spin_for(0.1)
+        cpu = (_cpu_seconds(node.proc.pid) - cpu0) / (time.monotonic() - t0)
+        rate = len(rows) / (rows[-1][0] - rows[0][0])
+    finally:
+        probe.close()
+        node.stop()
+    return cpu, rate
+
+
+def bench_fastest(log_dir, model, seconds, lockstep=False, reader=True):
+    """Return the real-time factor reached with publish_clock and factor 0.
+
+    With ``reader`` a client reads /clock (as a use_sim_time node does) and the factor is
+    measured from it; without, the node runs alone and its shutdown line is read.
+    """
+    probe = Probe()
+    if reader:
+        # As rclpy's own /clock reader (TimeSource): best effort, depth 1.
+        clocks = probe.record('/clock', Clock, qos=QoSProfile(
+            depth=1, reliability=ReliabilityPolicy.BEST_EFFORT))
+    tag = f'fast{int(lockstep)}{int(reader)}'
+    node = _start(log_dir, model, '-p', 'publish_clock:=true', '-p', 'real_time_factor:=0.0',
+                  '-p', f'lockstep:={str(lockstep).lower()}', name=tag)
+    pid = None
+    if lockstep:
+        pid = NodeProcess(module_command('tca_ros.pid_node', [
+            '-p', 'use_sim_time:=true', '-p', 'setpoint:=0.002']),
+            pathlib.Path(log_dir) / 'pid.log')
+    try:
+        if not reader:
+            time.sleep(seconds)
+            node.stop()
+            line = re.search(r'\(([0-9.]+)x real time\)', node.log())
+            return float(line.group(1)) if line else math.nan
+        probe.spin_until(lambda: clocks, 60.0)
+        probe.spin_for(1.0)
+        sim0, t0 = _sim_seconds(clocks[-1][1]), time.monotonic()
+        probe.spin_for(seconds)
+        factor = (_sim_seconds(clocks[-1][1]) - sim0) / (time.monotonic() - t0)
+    finally:
+        probe.close()
+        if pid is not None:
+            pid.stop()
+        node.stop()
+    return factor
+
+
+def _sim_seconds(msg):
+    return msg.clock.sec + 1e-9 * msg.clock.nanosec
+
+
+def bench_latency(log_dir, model, samples):
+    """Return latencies (s) from power_cmd publication to the applied power's receipt."""
+    node = _start(log_dir, model, name='latency')
+    probe = Probe()
+    rows = probe.record('power', Float64)
+    latencies = []
+    try:
+        probe.spin_until(lambda: rows, 20.0)
+        for i in range(samples):
+            value = 0.5 + 0.001 * (i + 1)  # W, unique per sample
+            start = time.monotonic()
+            probe.publish('power_cmd', Float64(data=value))
+            if probe.spin_until(lambda: rows[-1][1].data == value, 1.0):
+                latencies.append(rows[-1][0] - start)
+            time.sleep(0.05 * random.random())  # de-phase from the 100 Hz ticks
+    finally:
+        probe.close()
+        node.stop()
+    return latencies
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0],
+                                     formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    parser.add_argument('--model', default='rod', help='kinetostatic model (rod|cst|love)')
+    parser.add_argument('--seconds', type=float, default=10.0, help='wall time per figure, s')
+    parser.add_argument('--only-fastest', action='store_true', help='skip CPU and latency')
+    args = parser.parse_args()
+    if args.only_fastest:
+        with tempfile.TemporaryDirectory() as log_dir:
+            alone = bench_fastest(log_dir, args.model, args.seconds, reader=False)
+            fast = bench_fastest(log_dir, args.model, args.seconds)
+        print(f'fastest real-time factor, publish_clock, alone / with a /clock reader (x): '
+              f'{alone:.1f} / {fast:.1f}')
+        return 0
+    with tempfile.TemporaryDirectory() as log_dir:
+        cpu, rate = bench_cpu(log_dir, args.model, args.seconds)
+        alone = bench_fastest(log_dir, args.model, args.seconds / 2, reader=False)
+        fast = bench_fastest(log_dir, args.model, args.seconds / 2)
+        lock = bench_fastest(log_dir, args.model, args.seconds / 2, lockstep=True)
+        lat = sorted(bench_latency(log_dir, args.model, 100))
+    load1, load5, _ = os.getloadavg()
+    print(f'tca_node benchmark, model {args.model}, {os.cpu_count()} cores, '
+          f'load average {load1:.1f} / {load5:.1f} (1 / 5 min: other work shares the cores)')
+    print(f'{"figure":58s} {"value":>10s}  target')
+    print(f'{"CPU at 1 kHz physics / 100 Hz publishing (% of a core)":58s} '
+          f'{100 * cpu:10.1f}  < 25')
+    print(f'{"  publish rate seen by a client (Hz)":58s} {rate:10.1f}')
+    print(f'{"fastest real-time factor, publish_clock, node alone (x)":58s} {alone:10.1f}  >= 50')
+    print(f'{"  the same with a client reading /clock (x)":58s} {fast:10.1f}')
+    print(f'{"real-time factor, lockstep with tca_pid (x)":58s} {lock:10.1f}')
+    if lat:
+        print(f'{"power_cmd -> power latency, median (ms)":58s} '
+              f'{1e3 * statistics.median(lat):10.2f}')
+        print(f'{"power_cmd -> power latency, 95th percentile (ms)":58s} '
+              f'{1e3 * lat[int(0.95 * (len(lat) - 1))]:10.2f}')
+        print(f'{"power_cmd -> power latency, max (ms)":58s} {1e3 * lat[-1]:10.2f}')
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())

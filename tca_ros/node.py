@@ -1,0 +1,660 @@
+"""ROS 2 node ``tca``: the TCA simulator behind topics, parameters and a reset service.
+
+Inputs (std_msgs/Float64): ``power_cmd`` (W), ``voltage_cmd`` (V, heating V^2 / R),
+``load`` (N, tensile). Outputs at ``publish_rate``: ``displacement`` (m, contraction
+positive), ``temperature`` (sensor_msgs/Temperature, degC), ``resistance`` (ohm),
+``power`` (W, the power actually applied), ``joint_states`` (position = displacement,
+velocity = contraction rate, effort = tension), and ``shape`` (visualization_msgs/Marker)
+at ``shape_rate``. The physics (tca_ros.model.dynamics.TcaSimulator) runs at
+``physics_rate``. Time modes, parameters and examples: docs/node.md.
+"""
+import math
+import time
+
+from builtin_interfaces.msg import Time as TimeMsg
+from geometry_msgs.msg import Point
+import numpy as np
+from rcl_interfaces.msg import FloatingPointRange, ParameterDescriptor, SetParametersResult
+import rclpy
+from rclpy.clock import Clock, ClockType
+from rclpy.executors import ExternalShutdownException
+from rclpy.node import Node
+from rclpy.qos import QoSProfile
+from rclpy.qos_overriding_options import QoSOverridingOptions
+from rosgraph_msgs.msg import Clock as ClockMsg
+from sensor_msgs.msg import JointState, Temperature
+from std_msgs.msg import Float64
+from std_srvs.srv import Trigger
+from visualization_msgs.msg import Marker
+
+from tca_ros.model.dynamics import TcaSimulator
+from tca_ros.model.params import (
+    check_value, from_flat_dict, ParameterError, ParamSpec, SCHEMA, SPECS)
+from tca_ros.model.resistance import power_from_voltage
+
+try:  # the rod engineer's exact centreline; a uniform helix until it lands
+    from tca_ros.model.rod_model import centreline as _rod_centreline
+except ImportError:
+    _rod_centreline = None
+
+STATE_QOS = QoSProfile(depth=10)  # reliable: serves reliable and best-effort readers
+COMMAND_QOS = QoSProfile(depth=10)
+CLOCK_QOS = QoSProfile(depth=1)  # reliable writer; rclpy's clock reader is best effort
+SHAPE_QOS = QoSProfile(depth=1)
+
+MAX_CATCH_UP = 1.0  # s of physics run at most per callback after a stall or a clock jump
+FAST_BATCH = 0.02  # s of wall time spent ticking per callback at real_time_factor 0
+FAST_PERIOD = 1e-3  # s, wall period of the tick timer in publish_clock mode, factor 0
+LOCKSTEP_POLL = 0.01  # s, wall period of that timer in lockstep (wake-ups cost ~0.1 ms)
+MAX_TEMPERATURE_REARM = 1.0  # K below max_temperature before a new crossing is logged
+WARN_PERIOD = 1.0  # s between repeats of a throttled warning
+
+_NS = 1_000_000_000
+
+
+def _spec(name, default, unit, description, low=-math.inf, high=math.inf, read_only=False):
+    return ParamSpec(name, default, unit, description, low, high), read_only
+
+
+#: Node parameters (beside the TCA SCHEMA); validated with the same check_value.
+NODE_SCHEMA, _READ_ONLY = zip(*(
+    _spec('physics_rate', 1000.0, 'Hz', 'Rate of the physics steps (dynamics (18), eq. (1)).',
+          1.0, 100000.0),
+    _spec('publish_rate', 100.0, 'Hz', 'Rate of the state outputs (and of /clock ticks).',
+          0.1, 10000.0),
+    _spec('shape_rate', 2.0, 'Hz', 'Rate of the shape Marker; 0 turns it off.', 0.0, 100.0),
+    _spec('shape_points', 1000.0, '-', 'Number of points of the shape Marker.', 2.0, 100000.0),
+    _spec('publish_clock', False, '-',
+          'Own the time: step at real_time_factor and publish /clock.', read_only=True),
+    _spec('real_time_factor', 1.0, '-',
+          'Sim seconds per wall second with publish_clock; 0 = as fast as possible.',
+          0.0, 1e6),
+    _spec('lockstep', False, '-',
+          'With publish_clock: after each tick wait for one power or voltage command.'),
+    _spec('lockstep_timeout', 1.0, 's', 'Wall time a lockstep tick waits for a command.',
+          1e-3, 3600.0),
+    _spec('command_timeout', 0.5, 's',
+          'Power 0 after this long without a power or voltage command; 0 = never.',
+          0.0, 1e6),
+    _spec('max_power', 5.0, 'W', 'Power limit of the driver; larger commands are clamped.',
+          0.0, 1e4),
+    _spec('max_load', 10.0, 'N', 'Largest accepted external load; larger ones are clamped.',
+          0.0, 1e4),
+    _spec('max_temperature', 180.0, 'degC', 'Overheat limit: an error log at each crossing.',
+          -50.0, 2000.0),
+    _spec('melt_temperature', 250.0, 'degC',
+          'Above this the muscle breaks (tension 0, resistance inf) until reset.',
+          -50.0, 2000.0),
+    _spec('frame_id', 'tca', '-', 'Frame of the temperature sensor.'),
+    _spec('base_frame', 'tca_base', '-', 'Frame of the clamp, for the shape Marker.'),
+    _spec('joint_name', 'tca_joint', '-', 'Joint name in joint_states.'),
+    _spec('noise.displacement', 0.0, 'm', 'Std of the displacement noise.', 0.0, 1.0),
+    _spec('noise.temperature', 0.0, 'K', 'Std of the temperature noise.', 0.0, 100.0),
+    _spec('noise.resistance', 0.0, 'ohm', 'Std of the resistance noise.', 0.0, 1e6),
+    _spec('noise.seed', 0.0, '-', 'Seed of the measurement noise.', 0.0, 2.0 ** 31 - 1),
+))
+NODE_SPECS = {s.name: s for s in NODE_SCHEMA}
+READ_ONLY = {s.name for s, ro in zip(NODE_SCHEMA, _READ_ONLY) if ro}
+#: Node parameters that require a new simulator when changed.
+_REBUILD = {'physics_rate', 'publish_rate'}
+
+
+def helix_centreline(params, natural_length, elongation, n_points):
+    """Return the centreline (3, n) (m) of a uniform helix of length l* + elongation.
+
+    The coil count N = l_t cos(alpha*) / (2 pi r*) and the fiber length l_t are kept
+    (eq. (26)): sin(alpha) = l / l_t, r = l_t cos(alpha) / (2 pi N). The clamp is at the
+    origin and the TCA hangs along -z (frame ``tca_base``).
+    """
+    fiber, coil = params.fiber, params.coil
+    coils = fiber.length * math.cos(coil.pitch_angle) / (2.0 * math.pi * coil.radius)
+    length = min(max(natural_length + elongation, 0.0), fiber.length)
+    radius = math.sqrt(max(fiber.length ** 2 - length ** 2, 0.0)) / (2.0 * math.pi * coils)
+    s = np.linspace(0.0, 1.0, int(n_points))
+    phase = 2.0 * math.pi * coils * s
+    return np.vstack((radius * np.cos(phase), radius * np.sin(phase), -length * s))
+
+
+def validate_node_values(values):
+    """Return the node parameters coerced, or raise ParameterError (one line).
+
+    ``values`` maps NODE_SCHEMA names to values; cross-parameter rules included.
+    """
+    out = {name: check_value(NODE_SPECS[name], value) for name, value in values.items()}
+    if out['publish_rate'] > out['physics_rate']:
+        raise ParameterError(
+            f"parameter 'publish_rate' = {out['publish_rate']:g}: must not exceed "
+            f"physics_rate ({out['physics_rate']:g} Hz)")
+    if out['shape_rate'] > out['publish_rate']:
+        raise ParameterError(
+            f"parameter 'shape_rate' = {out['shape_rate']:g}: must not exceed "
+            f"publish_rate ({out['publish_rate']:g} Hz)")
+    if out['melt_temperature'] <= out['max_temperature']:
+        raise ParameterError(
+            f"parameter 'melt_temperature' = {out['melt_temperature']:g}: must be above "
+            f"max_temperature ({out['max_temperature']:g} degC)")
+    return out
+
+
+def build_simulator(params, node_values, kinetostatics=None):
+    """Return a TcaSimulator for params and node values, or raise ParameterError.
+
+    The physics step is 1/physics_rate, rounded so that whole steps fill one publish
+    period. Model import failures and the explicit stability limit become one-line
+    ParameterErrors naming the parameter.
+    """
+    steps = max(1, round(node_values['physics_rate'] / node_values['publish_rate']))
+    dt = 1.0 / (node_values['publish_rate'] * steps)
+    try:
+        return TcaSimulator(params, dt=dt, kinetostatics=kinetostatics)
+    except ImportError as exc:
+        raise ParameterError(
+            f"parameter 'model' = {params.model!r}: not available in this installation "
+            f'({exc}); use cst or love') from None
+    except ValueError as exc:  # StabilityError and model range errors
+        raise ParameterError(f'{exc} (physics_rate = {node_values["physics_rate"]:g} Hz)') \
+            from None
+
+
+def _descriptor(spec, read_only=False, with_range=True):
+    """Return the ParameterDescriptor of a schema entry (unit and range in the text)."""
+    text = f'{spec.description} Unit: {spec.unit}.'
+    finite = math.isfinite(spec.low) and math.isfinite(spec.high)
+    if finite:
+        text += f' Range: [{spec.low:g}, {spec.high:g}].'
+    if spec.choices:
+        text += f' One of: {", ".join(spec.choices)}.'
+    # Dynamic typing lets a params file write 25 for 25.0; check_value does the typing.
+    d = ParameterDescriptor(description=text, dynamic_typing=True, read_only=read_only)
+    if with_range and finite and isinstance(spec.default, float):
+        d.floating_point_range = [FloatingPointRange(from_value=float(spec.low),
+                                                     to_value=float(spec.high))]
+    return d
+
+
+class TcaSimNode(Node):
+    """Step the TCA model at physics_rate and publish its state at publish_rate."""
+
+    def __init__(self, **kwargs):
+        super().__init__('tca', **kwargs)
+        all_specs = [(s, False) for s in SCHEMA] + list(zip(NODE_SCHEMA, _READ_ONLY))
+        for spec, _ in all_specs:
+            self.declare_parameter(spec.name, spec.default,
+                                   _descriptor(spec, with_range=False))
+        tca_values = {s.name: self.get_parameter(s.name).value for s in SCHEMA}
+        node_values = {s.name: self.get_parameter(s.name).value for s in NODE_SCHEMA}
+        self._params = from_flat_dict(tca_values, source='ros parameters')
+        self._cfg = validate_node_values(node_values)
+        self._sim = build_simulator(self._params, self._cfg)
+        # Ranges only now: a bad start-up value gets the schema's one-line message above.
+        for spec, read_only in all_specs:
+            self.set_descriptor(spec.name, _descriptor(spec, read_only))
+        self.add_on_set_parameters_callback(self._on_set_parameters)
+
+        self._rng = np.random.default_rng(int(self._cfg['noise.seed']))
+        self._drive = ('power', 0.0)  # last valid command: ('power', W) or ('voltage', V)
+        self._last_command_ns = None  # node time of the last valid command
+        self._watchdog_tripped = False
+        self._load = self._params.dynamics.load
+        self._power = 0.0  # W, applied in the last physics step
+        self._broken = False
+        self._overheated = False
+        self._frozen = None  # (displacement, velocity) when the muscle broke
+        self._steps_done = 0
+        self._t0_ns = None
+        self._sim_ns = 0  # node-owned time with publish_clock
+        self._awaiting_command = False
+        self._await_deadline = 0.0
+        self._started = False
+        self._wall_first_tick = None
+        self._wall_t0 = None
+        self._ticks_done = 0
+        self._next_shape_ns = 0
+        self._next_shape_wall = 0.0
+
+        qos_opts = QoSOverridingOptions.with_default_policies()
+        self._disp_pub = self.create_publisher(Float64, 'displacement', STATE_QOS,
+                                               qos_overriding_options=qos_opts)
+        self._temp_pub = self.create_publisher(Temperature, 'temperature', STATE_QOS,
+                                               qos_overriding_options=qos_opts)
+        self._res_pub = self.create_publisher(Float64, 'resistance', STATE_QOS,
+                                              qos_overriding_options=qos_opts)
+        self._power_pub = self.create_publisher(Float64, 'power', STATE_QOS,
+                                                qos_overriding_options=qos_opts)
+        self._joint_pub = self.create_publisher(JointState, 'joint_states', STATE_QOS,
+                                                qos_overriding_options=qos_opts)
+        self._shape_pub = self.create_publisher(Marker, 'shape', SHAPE_QOS)
+        self._power_sub = self.create_subscription(Float64, 'power_cmd', self._on_power_cmd,
+                                                   COMMAND_QOS)
+        self._voltage_sub = self.create_subscription(Float64, 'voltage_cmd',
+                                                     self._on_voltage_cmd, COMMAND_QOS)
+        self.create_subscription(Float64, 'load', self._on_load, COMMAND_QOS)
+        self.create_service(Trigger, '~/reset', self._on_reset)
+
+        self._owns_time = self._cfg['publish_clock']
+        self._wall = Clock(clock_type=ClockType.STEADY_TIME)
+        if self._owns_time:
+            self._clock_pub = self.create_publisher(ClockMsg, '/clock', CLOCK_QOS)
+        self._timer = None
+        self._make_timer()
+        self._reset_sim()
+        self._warm_up_shape()
+        self.get_logger().info(
+            f'tca node ready: model {self._params.model}, physics {self._cfg["physics_rate"]:g} '
+            f'Hz, publish {self._cfg["publish_rate"]:g} Hz, '
+            + (f'own clock x{self._cfg["real_time_factor"]:g}' if self._owns_time
+               else 'node clock'))
+
+    # -- time -------------------------------------------------------------------------
+    def _make_timer(self):
+        """(Re)create the tick timer for the time mode and rates."""
+        if self._timer is not None:
+            self.destroy_timer(self._timer)
+        if self._owns_time:
+            rtf = self._cfg['real_time_factor']
+            period = FAST_PERIOD if rtf == 0.0 else min(
+                FAST_PERIOD * 10, 1.0 / (self._cfg['publish_rate'] * rtf))
+            if self._cfg['lockstep']:
+                # Commands drive the ticks; the timer only starts them and times out.
+                period = max(period, LOCKSTEP_POLL)
+            self._timer = self.create_timer(period, self._on_clock_timer, clock=self._wall)
+            self._wall_t0, self._ticks_done = None, 0
+        else:
+            self._timer = self.create_timer(1.0 / self._cfg['publish_rate'], self._on_timer)
+
+    def _now_ns(self):
+        """Return the node time (ns): own sim time with publish_clock, else the ROS clock."""
+        if self._owns_time:
+            return self._sim_ns
+        return self.get_clock().now().nanoseconds
+
+    def _catch_up(self):
+        """Step the physics up to the node clock (modes without publish_clock)."""
+        now = self._now_ns()
+        if now == 0:  # use_sim_time and no /clock received yet
+            return
+        if self._t0_ns is None or now < self._t0_ns:
+            if self._t0_ns is not None:
+                self.get_logger().warning('clock jumped backwards: physics time rebased')
+            self._t0_ns, self._steps_done = now, 0
+        target = int((now - self._t0_ns) / (self._sim.dt * _NS))
+        n = target - self._steps_done
+        limit = int(MAX_CATCH_UP / self._sim.dt)
+        if n > limit:
+            self.get_logger().warning(
+                f'physics {n * self._sim.dt:.3g} s behind the clock: skipped to now',
+                throttle_duration_sec=WARN_PERIOD)
+            self._steps_done += n - limit
+            n = limit
+        self._advance(n)
+        self._steps_done += n
+
+    def _on_timer(self):
+        self._catch_up()
+        self._publish_state(self._now_ns())
+
+    def _on_clock_timer(self):
+        """Tick the node-owned clock at real_time_factor (publish_clock mode)."""
+        if not self._started:
+            if self._cfg['lockstep'] and not self._peers_matched():
+                return
+            self._started = True
+            self._wall_first_tick = time.monotonic()
+            self._publish_tick()
+            return
+        if self._awaiting_command:
+            if time.monotonic() < self._await_deadline:
+                return
+            if self._last_command_ns is None:
+                # The controller's reader may not have matched yet when the first state
+                # went out: repeat it (same values) rather than advance without a reply.
+                self._publish_clock()
+                self._emit_sample()
+                self._await_deadline = time.monotonic() + self._cfg['lockstep_timeout']
+                return
+            self.get_logger().warning(
+                f'lockstep: no command within {self._cfg["lockstep_timeout"]:g} s: '
+                'advancing with the last one', throttle_duration_sec=WARN_PERIOD)
+            self._awaiting_command = False
+        self._run_ticks()
+
+    def log_time_summary(self):
+        """Log the sim time reached and its ratio to wall time (publish_clock mode)."""
+        if self._owns_time and self._wall_first_tick is not None:
+            wall = time.monotonic() - self._wall_first_tick
+            sim = self._sim_ns / _NS
+            # Not the node's logger: at shutdown its /rosout publisher is already gone.
+            rclpy.logging.get_logger('tca.time').info(
+                f'simulated {sim:.3f} s in {wall:.3f} s of wall time '
+                f'({sim / max(wall, 1e-9):.1f}x real time)')
+
+    def _peers_matched(self):
+        """Return True when a controller reads the state and writes commands."""
+        readers = self._joint_pub.get_subscription_count() \
+            + self._disp_pub.get_subscription_count()
+        writers = self._power_sub.get_publisher_count() \
+            + self._voltage_sub.get_publisher_count()
+        return readers > 0 and writers > 0
+
+    def _run_ticks(self):
+        """Run the ticks that are due (or a wall-time batch at factor 0)."""
+        rtf = self._cfg['real_time_factor']
+        tick_s = 1.0 / self._cfg['publish_rate']
+        start = time.monotonic()
+        if self._wall_t0 is None:
+            self._wall_t0, self._ticks_done = start, 0
+        while not self._awaiting_command:
+            if rtf == 0.0:
+                if time.monotonic() - start > FAST_BATCH:
+                    break
+            else:
+                due = int((time.monotonic() - self._wall_t0) * rtf / tick_s)
+                if self._ticks_done >= due:
+                    break
+                if due - self._ticks_done > MAX_CATCH_UP / tick_s:
+                    self._wall_t0 = time.monotonic() - self._ticks_done * tick_s / rtf
+            self._ticks_done += 1
+            self._advance(self._steps_per_tick())
+            self._sim_ns += round(tick_s * _NS)
+            self._publish_tick()
+
+    def _publish_clock(self):
+        self._clock_pub.publish(ClockMsg(clock=_time_msg(self._sim_ns)))
+
+    def _publish_tick(self):
+        """Publish /clock and the state; in lockstep, then wait for a command."""
+        self._publish_clock()
+        self._publish_state(self._sim_ns)
+        if self._cfg['lockstep']:
+            self._awaiting_command = True
+            self._await_deadline = time.monotonic() + self._cfg['lockstep_timeout']
+
+    def _steps_per_tick(self):
+        return max(1, round(self._cfg['physics_rate'] / self._cfg['publish_rate']))
+
+    # -- physics ----------------------------------------------------------------------
+    def _command_power(self, now_ns):
+        """Return the power (W) to apply now: watchdog, limits, voltage drive."""
+        if self._broken:
+            return 0.0
+        timeout = self._cfg['command_timeout']
+        if self._last_command_ns is not None and timeout > 0.0 and \
+                now_ns - self._last_command_ns > timeout * _NS:
+            if not self._watchdog_tripped:
+                self._watchdog_tripped = True
+                self.get_logger().warning(
+                    f'no power or voltage command for {timeout:g} s: power set to 0')
+            return 0.0
+        kind, value = self._drive
+        power = power_from_voltage(value, self._sim.state.resistance) if kind == 'voltage' \
+            else value
+        return min(max(power, 0.0), self._cfg['max_power'])
+
+    def _advance(self, n_steps):
+        """Run n physics steps with the current command and load."""
+        now = self._now_ns()
+        for i in range(n_steps):
+            if i == 0 or self._drive[0] == 'voltage':  # V^2 / R follows R(T, x)
+                self._power = self._command_power(now)
+            state = self._sim.step(self._power, self._load)
+            temp = state.temperature
+            if not math.isfinite(temp) or not math.isfinite(state.elongation):
+                self.get_logger().error('the physics diverged: muscle marked broken; reset')
+                self._break(self._frozen_values(state))
+                self._sim.reset(load=self._load)
+                continue
+            if temp > self._cfg['max_temperature'] and not self._overheated:
+                self._overheated = True
+                self.get_logger().error(
+                    f'temperature {temp:.1f} degC above max_temperature '
+                    f'{self._cfg["max_temperature"]:g} degC')
+            elif temp < self._cfg['max_temperature'] - MAX_TEMPERATURE_REARM:
+                self._overheated = False
+            if temp > self._cfg['melt_temperature'] and not self._broken:
+                self.get_logger().error(
+                    f'temperature {temp:.1f} degC above melt_temperature '
+                    f'{self._cfg["melt_temperature"]:g} degC: the muscle broke '
+                    '(tension 0, resistance inf) until ~/reset')
+                self._break(self._frozen_values(state))
+                self._power = 0.0
+
+    @staticmethod
+    def _frozen_values(state):
+        return (state.measured_displacement, -state.velocity)
+
+    def _break(self, frozen):
+        self._broken = True
+        self._frozen = frozen
+
+    def _reset_sim(self, temperature=None):
+        """Return to the loaded equilibrium at temperature (degC, default ambient)."""
+        self._sim.reset(load=self._load, temperature=temperature)
+        self._broken = False
+        self._overheated = False
+        self._frozen = None
+        self._power = 0.0
+
+    # -- outputs ----------------------------------------------------------------------
+    def _noise(self, key):
+        std = self._cfg['noise.' + key]
+        return float(self._rng.normal(0.0, std)) if std > 0.0 else 0.0
+
+    def _publish_state(self, now_ns):
+        """Sample the state now (stamps = physics time, ns), publish it and the shape."""
+        s = self._sim.state
+        if self._broken:
+            displacement, rate = self._frozen
+            tension, res = 0.0, math.inf
+        else:
+            displacement, rate = s.measured_displacement, -s.velocity
+            tension, res = s.tension, s.resistance
+        # The noise is drawn whoever listens, so the outputs never depend on the readers.
+        displacement += self._noise('displacement')
+        res += self._noise('resistance')
+        temperature = s.temperature + self._noise('temperature')
+        self._sample = (_time_msg(now_ns), displacement, rate, tension, res, temperature,
+                        self._power)
+        self._emit_sample()
+        rate = self._cfg['shape_rate']
+        if rate > 0.0 and now_ns >= self._next_shape_ns and \
+                time.monotonic() >= self._next_shape_wall and \
+                self._shape_pub.get_subscription_count():
+            # At most shape_rate per sim second and per wall second: a viewer needs no
+            # more, and a 1000-point Marker costs ~5 ms to build in Python.
+            self._next_shape_ns = now_ns + round(_NS / rate)
+            self._next_shape_wall = time.monotonic() + 1.0 / rate
+            self._publish_shape(self._sample[0])
+
+    def _emit_sample(self):
+        """Publish the last sample to the topics that have readers.
+
+        Messages nobody reads are not built: a third of a tick's cost when the node runs
+        as fast as possible.
+        """
+        stamp, displacement, rate, tension, res, temperature, power = self._sample
+        if self._joint_pub.get_subscription_count():
+            joint = JointState()
+            joint.header.stamp = stamp
+            joint.name = [self._cfg['joint_name']]
+            joint.position = [displacement]
+            joint.velocity = [rate]
+            joint.effort = [tension]
+            self._joint_pub.publish(joint)
+        if self._temp_pub.get_subscription_count():
+            temp = Temperature()
+            temp.header.stamp = stamp
+            temp.header.frame_id = self._cfg['frame_id']
+            temp.temperature = temperature
+            temp.variance = self._cfg['noise.temperature'] ** 2
+            self._temp_pub.publish(temp)
+        for pub, value in ((self._disp_pub, displacement), (self._res_pub, res),
+                           (self._power_pub, power)):
+            if pub.get_subscription_count():
+                pub.publish(Float64(data=value))
+
+    def _rod_shape(self):
+        """Return True when the shape comes from the rod solution.
+
+        The rod centreline is the exact one for the rod model and the only one for a
+        conical TCA; for cst and love a helix of the current length (fixed coil count)
+        shows the same stroke without building the rod table.
+        """
+        return _rod_centreline is not None and (
+            self._params.model == 'rod' or self._params.coil.shape != 'helix')
+
+    def _warm_up_shape(self):
+        """Build the rod centreline's tables now rather than stall the first Marker."""
+        if self._cfg['shape_rate'] > 0.0 and self._rod_shape():
+            s = self._sim.state
+            _rod_centreline(self._params, s.elongation, s.temperature, 2)
+
+    def _publish_shape(self, stamp):
+        s = self._sim.state
+        n = int(self._cfg['shape_points'])
+        if self._rod_shape():
+            points = _rod_centreline(self._params, s.elongation, s.temperature, n)
+        else:
+            points = helix_centreline(self._params, self._sim.kinetostatics.natural_length,
+                                      s.elongation, n)
+        marker = Marker()
+        marker.header.stamp = stamp
+        marker.header.frame_id = self._cfg['base_frame']
+        marker.ns = 'tca'
+        marker.type = Marker.LINE_STRIP
+        marker.action = Marker.ADD
+        marker.pose.orientation.w = 1.0
+        marker.scale.x = 2.0 * self._params.fiber.radius  # line width = fiber diameter, m
+        hot = min(max((s.temperature - 25.0) / 150.0, 0.0), 1.0)
+        marker.color.r, marker.color.g, marker.color.b, marker.color.a = hot, 0.2, 1.0 - hot, 1.0
+        marker.points = [_point(x, y, z) for x, y, z in np.asarray(points).T]
+        self._shape_pub.publish(marker)
+
+    # -- inputs -----------------------------------------------------------------------
+    def _valid(self, topic, value):
+        if math.isfinite(value):
+            return True
+        self.get_logger().warning(f'{topic}: rejected non-finite value {value}; '
+                                  'keeping the last valid one',
+                                  throttle_duration_sec=WARN_PERIOD)
+        return False
+
+    def _command(self, kind, value):
+        if not self._owns_time:
+            self._catch_up()  # the old command holds up to now (zero-order hold)
+        self._drive = (kind, value)
+        self._last_command_ns = self._now_ns()
+        if self._watchdog_tripped:
+            self._watchdog_tripped = False
+            self.get_logger().info('commands are back: watchdog cleared')
+        if self._awaiting_command:
+            self._awaiting_command = False
+            self._run_ticks()
+
+    def _on_power_cmd(self, msg):
+        if not self._valid('power_cmd', msg.data):
+            return
+        if msg.data < 0.0 or msg.data > self._cfg['max_power']:
+            self.get_logger().warning(
+                f'power_cmd {msg.data:g} W outside [0, {self._cfg["max_power"]:g}] W: clamped',
+                throttle_duration_sec=WARN_PERIOD)
+        self._command('power', msg.data)
+
+    def _on_voltage_cmd(self, msg):
+        if self._valid('voltage_cmd', msg.data):
+            self._command('voltage', msg.data)
+
+    def _on_load(self, msg):
+        if not self._valid('load', msg.data):
+            return
+        load = min(max(msg.data, 0.0), self._cfg['max_load'])
+        if load != msg.data:
+            self.get_logger().warning(
+                f'load {msg.data:g} N outside [0, {self._cfg["max_load"]:g}] N: clamped',
+                throttle_duration_sec=WARN_PERIOD)
+        if not self._owns_time:
+            self._catch_up()
+        self._load = load
+
+    def _on_reset(self, request, response):
+        if not self._owns_time:
+            self._catch_up()
+        self._reset_sim()
+        self._drive = ('power', 0.0)
+        self._last_command_ns = None
+        self._watchdog_tripped = False
+        response.success = True
+        response.message = (f'reset to the loaded equilibrium at '
+                            f'{self._sim.state.temperature:g} degC, load {self._load:g} N')
+        self.get_logger().info(response.message)
+        return response
+
+    # -- parameters -------------------------------------------------------------------
+    def _on_set_parameters(self, parameters):
+        """Check new values against the schema and cross-parameter rules; apply them."""
+        owned = [p for p in parameters if p.name in SPECS or p.name in NODE_SPECS]
+        if not owned:
+            return SetParametersResult(successful=True)
+        tca_values = {s.name: self.get_parameter(s.name).value for s in SCHEMA}
+        node_values = dict(self._cfg)
+        for p in owned:
+            (tca_values if p.name in SPECS else node_values)[p.name] = p.value
+        try:
+            params = from_flat_dict(tca_values, source='ros parameters')
+            cfg = validate_node_values(node_values)
+            rebuild = params != self._params or any(cfg[k] != self._cfg[k] for k in _REBUILD)
+            if rebuild:
+                shared = self._sim.kinetostatics if params == self._params else None
+                sim = build_simulator(params, cfg, kinetostatics=shared)
+        except ParameterError as exc:
+            return SetParametersResult(successful=False, reason=str(exc))
+        if not self._owns_time:
+            self._catch_up()
+        old_cfg, self._cfg = self._cfg, cfg
+        if rebuild:
+            if params == self._params:
+                self._sim.set_dt(sim.dt)  # same TCA, new step: keep the whole state
+            else:
+                temperature = self._sim.state.temperature
+                self._params, self._sim = params, sim
+                self._reset_sim(temperature)
+                self._warm_up_shape()
+            self._t0_ns, self._steps_done = None, 0
+        if cfg['noise.seed'] != old_cfg['noise.seed']:
+            self._rng = np.random.default_rng(int(cfg['noise.seed']))
+        if not cfg['lockstep']:
+            self._awaiting_command = False
+        if any(cfg[k] != old_cfg[k] for k in ('publish_rate', 'real_time_factor', 'lockstep')):
+            self._make_timer()
+        return SetParametersResult(successful=True)
+
+
+def _time_msg(ns):
+    return TimeMsg(sec=ns // _NS, nanosec=ns % _NS)
+
+
+def _point(x, y, z):
+    return Point(x=float(x), y=float(y), z=float(z))
+
+
+def main(args=None):
+    """Run the ``tca`` node; return 2 on an invalid parameter (one-line error)."""
+    rclpy.init(args=args)
+    node = None
+    try:
+        node = TcaSimNode()
+        rclpy.spin(node)
+    except ParameterError as exc:
+        rclpy.logging.get_logger('tca').fatal(str(exc))
+        return 2
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        if node is not None:
+            node.log_time_summary()
+            node.destroy_node()
+        rclpy.try_shutdown()
+    return 0
+
+
+if __name__ == '__main__':
+    raise SystemExit(main())
