@@ -121,15 +121,13 @@ def _run(out, path, model, sim_seconds, env):
     rows = {'joint': [], 'temperature': [], 'power': []}
     setpoint_pub = recorder.create_publisher(Float64, 'displacement_setpoint',
                                              QoSProfile(depth=10))
-    last = {'setpoint': None}
 
     def on_joint(msg):
         t = msg.header.stamp.sec + 1e-9 * msg.header.stamp.nanosec
         sp = setpoint_at(t, sim_seconds)
         rows['joint'].append((t, msg.position[0], sp))
-        if sp != last['setpoint']:
-            last['setpoint'] = sp
-            setpoint_pub.publish(Float64(data=sp))
+        # every sample, not only on change: a late-matched controller still gets it
+        setpoint_pub.publish(Float64(data=sp))
 
     recorder.create_subscription(JointState, 'joint_states', on_joint, qos)
     recorder.create_subscription(
@@ -138,12 +136,22 @@ def _run(out, path, model, sim_seconds, env):
     recorder.create_subscription(Float64, 'power',
                                  lambda m: rows['power'].append(m.data), qos)
 
-    tca = _start('tca_ros.node', ['--params-file', path, '-p', f'model:={model}',
-                                  '-p', 'publish_clock:=true', '-p', 'real_time_factor:=0.0',
-                                  '-p', 'lockstep:=true'], out / 'demo_tca.log', env)
     pid = _start('tca_ros.pid_node', ['-p', 'use_sim_time:=true'], out / 'demo_pid.log', env)
+    tca = None
     wall0 = time.monotonic()
     try:
+        # The node's clock starts once a controller matches, and then runs far faster
+        # than discovery: start it only when the controller hears this recorder's
+        # setpoints, so the controller acts from sim time 0.
+        deadline = wall0 + START_TIMEOUT
+        while (time.monotonic() < deadline and pid[0].poll() is None
+               and setpoint_pub.get_subscription_count() < 1):
+            executor.spin_once(timeout_sec=0.05)
+        setpoint_pub.publish(Float64(data=setpoint_at(0.0, sim_seconds)))
+        tca = _start('tca_ros.node', ['--params-file', path, '-p', f'model:={model}',
+                                      '-p', 'publish_clock:=true',
+                                      '-p', 'real_time_factor:=0.0', '-p', 'lockstep:=true'],
+                     out / 'demo_tca.log', env)
         deadline = wall0 + START_TIMEOUT + 10.0 * sim_seconds
         while time.monotonic() < deadline:
             executor.spin_once(timeout_sec=0.05)
@@ -154,7 +162,8 @@ def _run(out, path, model, sim_seconds, env):
         wall = time.monotonic() - wall0
     finally:
         _stop(*pid)
-        _stop(*tca)
+        if tca is not None:
+            _stop(*tca)
         executor.remove_node(recorder)
         recorder.destroy_node()
         rclpy.try_shutdown(context=context)
