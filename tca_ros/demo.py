@@ -125,33 +125,38 @@ def _run(out, path, model, sim_seconds, env):
     def on_joint(msg):
         t = msg.header.stamp.sec + 1e-9 * msg.header.stamp.nanosec
         sp = setpoint_at(t, sim_seconds)
-        rows['joint'].append((t, msg.position[0], sp))
+        if not rows['joint'] or t > rows['joint'][-1][0]:  # the first state may repeat
+            rows['joint'].append((t, msg.position[0], sp))
         # every sample, not only on change: a late-matched controller still gets it
         setpoint_pub.publish(Float64(data=sp))
 
-    recorder.create_subscription(JointState, 'joint_states', on_joint, qos)
-    recorder.create_subscription(
-        Temperature, 'temperature', lambda m: rows['temperature'].append(
-            (m.header.stamp.sec + 1e-9 * m.header.stamp.nanosec, m.temperature)), qos)
-    recorder.create_subscription(Float64, 'power',
-                                 lambda m: rows['power'].append(m.data), qos)
+    def on_temperature(msg):
+        t = msg.header.stamp.sec + 1e-9 * msg.header.stamp.nanosec
+        if not rows['temperature'] or t > rows['temperature'][-1][0]:
+            rows['temperature'].append((t, msg.temperature))
 
-    pid = _start('tca_ros.pid_node', ['-p', 'use_sim_time:=true'], out / 'demo_pid.log', env)
-    tca = None
+    def on_power(msg):  # unstamped: file it under the latest state's time
+        t = rows['joint'][-1][0] if rows['joint'] else 0.0
+        if rows['power'] and rows['power'][-1][0] == t:
+            rows['power'][-1] = (t, msg.data)
+        else:
+            rows['power'].append((t, msg.data))
+
+    recorder.create_subscription(JointState, 'joint_states', on_joint, qos)
+    recorder.create_subscription(Temperature, 'temperature', on_temperature, qos)
+    recorder.create_subscription(Float64, 'power', on_power, qos)
+
+    # In lockstep the simulator repeats its first state until a command arrives, and the
+    # controller (wait_for_setpoint) commands only once it has a setpoint, which this
+    # recorder sends on every state it receives: sim time 0 waits for the whole loop.
+    pid = _start('tca_ros.pid_node', ['-p', 'use_sim_time:=true',
+                                      '-p', 'wait_for_setpoint:=true'],
+                 out / 'demo_pid.log', env)
+    tca = _start('tca_ros.node', ['--params-file', path, '-p', f'model:={model}',
+                                  '-p', 'publish_clock:=true', '-p', 'real_time_factor:=0.0',
+                                  '-p', 'lockstep:=true'], out / 'demo_tca.log', env)
     wall0 = time.monotonic()
     try:
-        # The node's clock starts once a controller matches, and then runs far faster
-        # than discovery: start it only when the controller hears this recorder's
-        # setpoints, so the controller acts from sim time 0.
-        deadline = wall0 + START_TIMEOUT
-        while (time.monotonic() < deadline and pid[0].poll() is None
-               and setpoint_pub.get_subscription_count() < 1):
-            executor.spin_once(timeout_sec=0.05)
-        setpoint_pub.publish(Float64(data=setpoint_at(0.0, sim_seconds)))
-        tca = _start('tca_ros.node', ['--params-file', path, '-p', f'model:={model}',
-                                      '-p', 'publish_clock:=true',
-                                      '-p', 'real_time_factor:=0.0', '-p', 'lockstep:=true'],
-                     out / 'demo_tca.log', env)
         deadline = wall0 + START_TIMEOUT + 10.0 * sim_seconds
         while time.monotonic() < deadline:
             executor.spin_once(timeout_sec=0.05)
@@ -162,8 +167,7 @@ def _run(out, path, model, sim_seconds, env):
         wall = time.monotonic() - wall0
     finally:
         _stop(*pid)
-        if tca is not None:
-            _stop(*tca)
+        _stop(*tca)
         executor.remove_node(recorder)
         recorder.destroy_node()
         rclpy.try_shutdown(context=context)
@@ -181,7 +185,7 @@ def _summarize(rows, sim_seconds, wall, model):
     t, y, sp = (np.array(c) for c in zip(*rows['joint']))
     tt, temp = (np.array(c) for c in zip(*rows['temperature']))
     temp_at = np.interp(t, tt, temp)  # same stamps; interp guards a missed sample
-    power = np.array(rows['power'])
+    power = np.array([value for _, value in rows['power']])
     error = y - sp
     print(f'TCA closed-loop demo: model {model}, {sim_seconds:g} s simulated in {wall:.1f} s '
           f'wall ({sim_seconds / wall:.1f}x real time)')
@@ -217,8 +221,7 @@ def _plot(rows, path, model):
 
     t, y, sp = (np.array(c) for c in zip(*rows['joint']))
     tt, temp = (np.array(c) for c in zip(*rows['temperature']))
-    power = np.array(rows['power'])
-    n = min(len(power), len(t))
+    tp, power = (np.array(c) for c in zip(*rows['power']))
     fig, axes = plt.subplots(3, 1, sharex=True, figsize=(8, 7))
     axes[0].plot(t, 1e3 * sp, 'k--', label='setpoint')
     axes[0].plot(t, 1e3 * y, label='displacement')
@@ -227,7 +230,7 @@ def _plot(rows, path, model):
     axes[0].set_title(f'tca_node ({model}) + tca_pid in lockstep over ROS 2 topics')
     axes[1].plot(tt, temp, color='tab:red')
     axes[1].set_ylabel('temperature (degC)')
-    axes[2].plot(t[:n], power[:n], color='tab:orange')
+    axes[2].step(tp, power, where='post', color='tab:orange')
     axes[2].set_ylabel('power (W)')
     axes[2].set_xlabel('sim time (s)')
     for ax in axes:

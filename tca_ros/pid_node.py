@@ -100,6 +100,12 @@ class TcaPidNode(Node):
             self.set_descriptor(name, descriptor)
         _check_limits(values['min_power'], values['max_power'])
         self._setpoint = values.pop('setpoint')
+        # Until a setpoint arrives, send no command: a lockstep simulator then holds its
+        # clock at 0 until the whole loop (and whoever sends setpoints) is connected.
+        self._have_setpoint = not self.declare_parameter(
+            'wait_for_setpoint', False, ParameterDescriptor(
+                description='Send no power_cmd until a displacement_setpoint arrives.',
+                read_only=True)).value
         self._pid = PidController(**values)
         self.add_on_set_parameters_callback(self._on_set_parameters)
         self._last_stamp_ns = None
@@ -113,6 +119,7 @@ class TcaPidNode(Node):
     def _on_setpoint(self, msg):
         if math.isfinite(msg.data):
             self._setpoint = msg.data
+            self._have_setpoint = True
         else:
             self.get_logger().warning('displacement_setpoint: non-finite value rejected',
                                       throttle_duration_sec=1.0)
@@ -123,6 +130,8 @@ class TcaPidNode(Node):
             self.get_logger().warning('joint_states: no finite position: power 0',
                                       throttle_duration_sec=1.0)
             self._power_pub.publish(Float64(data=0.0))
+            return
+        if not self._have_setpoint:
             return
         stamp = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
         dt = 0.0 if self._last_stamp_ns is None else (stamp - self._last_stamp_ns) * 1e-9
