@@ -78,7 +78,7 @@ def test_read_profile_without_load(tmp_path):
 def test_bench_prints_a_row_per_model():
     code, text = run(['bench', '--seconds', '0.2'])
     assert code == 0
-    rows = [line.split()[0] for line in text.splitlines()[2:]]
+    rows = [line.split()[0] for line in text.splitlines() if not line.startswith('#')][1:]
     assert {'cst', 'love'} <= set(rows)
 
 
