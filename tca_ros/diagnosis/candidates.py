@@ -1,0 +1,140 @@
+"""Search spaces of the candidate extensions: bounds, scaling and screening starts.
+
+Each effect of ``tca_ros.model.effects.CATALOGUE`` is fitted over the parameters it
+owns, within bounds wider than any record we generate (the fit must not know the
+generator's ranges) but still physical. Coil contact is special: its parameter
+acts only once the stroke reaches the stop, so its screening starts are placed
+where the stop would cut the nominal peak contraction of the record.
+"""
+from dataclasses import dataclass
+import math
+
+from tca_ros.model.effects import CATALOGUE
+from tca_ros.model.kinetostatics import make_kinetostatic_model
+from tca_ros.model.params import SPECS
+
+
+@dataclass(frozen=True)
+class ParameterSpace:
+    """Bounds and scaling of one fitted parameter (dotted name, schema units)."""
+
+    name: str
+    low: float
+    high: float
+    log: bool = False
+
+    @property
+    def unit(self):
+        """Return the parameter's unit from the schema."""
+        return SPECS[self.name].unit
+
+    def to_unit(self, value):
+        """Return ``value`` mapped to [0, 1] (linear or logarithmic)."""
+        if self.log:
+            z = math.log(value / self.low) / math.log(self.high / self.low)
+        else:
+            z = (value - self.low) / (self.high - self.low)
+        return min(max(z, 0.0), 1.0)
+
+    def from_unit(self, z):
+        """Return the parameter value at ``z`` in [0, 1]."""
+        z = min(max(float(z), 0.0), 1.0)
+        if self.log:
+            return self.low * (self.high / self.low) ** z
+        return self.low + z * (self.high - self.low)
+
+
+#: Fit bounds (schema units) and screening starts of each effect parameter.
+_SPACES = {
+    'effects.creep_compliance': (ParameterSpace('effects.creep_compliance', 0.0, 0.05),
+                                 (0.003, 0.01, 0.025)),
+    'effects.creep_time_constant': (ParameterSpace('effects.creep_time_constant', 2.0, 400.0,
+                                                   log=True), (15.0, 60.0)),
+    'effects.hysteresis_width': (ParameterSpace('effects.hysteresis_width', 0.0, 40.0),
+                                 (4.0, 10.0, 20.0)),
+    'effects.emissivity': (ParameterSpace('effects.emissivity', 0.0, 1.0), (0.3, 0.6, 0.95)),
+    'effects.convection_exponent': (ParameterSpace('effects.convection_exponent', 0.0, 1.0),
+                                    (0.1, 0.25, 0.5)),
+    'effects.extra_softening': (ParameterSpace('effects.extra_softening', 0.0, 3e7),
+                                (3e6, 8e6, 1.6e7)),
+    'effects.sensor_lag': (ParameterSpace('effects.sensor_lag', 0.0, 3.0), (0.1, 0.3, 0.8)),
+    'effects.ambient_offset': (ParameterSpace('effects.ambient_offset', -15.0, 15.0),
+                               (-6.0, -2.0, 2.0, 6.0)),
+    'effects.power_loss_fraction': (ParameterSpace('effects.power_loss_fraction', 0.0, 0.6),
+                                    (0.05, 0.15, 0.3)),
+}
+CONTACT_START_FRACTIONS = (0.9, 0.75, 0.6, 0.45)  # stop at these fractions of the peak
+CONTACT_MARGIN_DEG = 0.05  # alpha_min stays this far below alpha* (validation rule)
+
+
+@dataclass(frozen=True)
+class Candidate:
+    """One candidate extension: its name, parameter spaces and screening starts."""
+
+    name: str
+    spaces: tuple  # of ParameterSpace
+    starts: tuple  # of tuples of values, one per space
+
+    @property
+    def n_params(self):
+        """Return the number of fitted parameters."""
+        return len(self.spaces)
+
+
+def contact_space(params, model, load0, peak_contraction, measured_peak=None):
+    """Return the Candidate of 'coil_contact' for a record (bounds and starts in deg).
+
+    The stop bounds the contraction (m) from the loaded reference by
+    L0 - l_t sin(alpha_min). Below the angle whose stop equals the nominal peak
+    of the training part the cost is flat (the stop never binds), so the starts
+    cut the nominal training ``peak_contraction`` (m) to CONTACT_START_FRACTIONS
+    of itself, plus one at the ``measured_peak`` (m) when that is lower.
+    """
+    low = math.degrees(params.coil.min_pitch_angle)
+    high = math.degrees(params.coil.pitch_angle) - CONTACT_MARGIN_DEG
+    km = make_kinetostatic_model(params, model)
+    ambient = params.thermal.ambient_temperature + params.effects.ambient_offset
+    loaded = km.natural_length + km.equilibrium_elongation(load0, ambient)
+    starts = []
+    fractions = list(CONTACT_START_FRACTIONS)
+    if measured_peak is not None and 0.0 < measured_peak < peak_contraction:
+        fractions.append(measured_peak / peak_contraction)
+    for fraction in fractions:
+        ratio = (loaded - fraction * peak_contraction) / params.fiber.length
+        if -1.0 < ratio < 1.0:
+            angle = math.degrees(math.asin(ratio))
+            if low < angle < high:
+                starts.append((angle,))
+    space = ParameterSpace('coil.min_pitch_angle_deg', low, high)
+    return Candidate('coil_contact', (space,), tuple(starts))
+
+
+def build_candidates(params, model, load0, peak_contraction, names=None,
+                     initial_temperature=None, measured_peak=None):
+    """Return the Candidates of the catalogue (all, or ``names``), catalogue order.
+
+    A candidate without starts (coil contact that cannot bind in this record) is
+    kept with an empty ``starts`` and reported as not identifiable. When the
+    measured ``initial_temperature`` (degC, the record starts at ambient) is given,
+    its difference from the nominal ambient is one more ambient_offset start;
+    ``peak_contraction`` and ``measured_peak`` (m) are the nominal and measured
+    peak contractions of the training part (see ``contact_space``).
+    """
+    out = []
+    for name, dotted in CATALOGUE.items():
+        if names is not None and name not in names:
+            continue
+        if name == 'coil_contact':
+            out.append(contact_space(params, model, load0, peak_contraction, measured_peak))
+            continue
+        spaces = tuple(_SPACES[d][0] for d in dotted)
+        grids = [_SPACES[d][1] for d in dotted]
+        if name == 'ambient_offset' and initial_temperature is not None:
+            space = spaces[0]
+            offset = initial_temperature - params.thermal.ambient_temperature
+            grids = [tuple(grids[0]) + (min(max(offset, space.low), space.high),)]
+        starts = [()]
+        for grid in grids:
+            starts = [s + (v,) for s in starts for v in grid]
+        out.append(Candidate(name, spaces, tuple(starts)))
+    return out

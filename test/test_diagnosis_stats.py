@@ -1,0 +1,60 @@
+"""Tests of the residual statistics and the model-selection penalty."""
+import math
+
+import numpy as np
+import pytest
+
+from tca_ros.diagnosis.candidates import ParameterSpace
+from tca_ros.diagnosis.fitting import penalised_gain
+from tca_ros.diagnosis.residuals import cross_correlation_lag, effective_samples, \
+    ljung_box, noise_sigma, spectral_flatness
+
+
+def test_noise_sigma_ignores_smooth_signal_and_steps():
+    rng = np.random.default_rng(0)
+    t = np.arange(20000) / 100.0
+    signal = 1e-3 * np.sin(2 * np.pi * t / 30.0) + 2e-3 * (t > 50.0)  # thermal-scale + step
+    sigma = 7e-6
+    est = noise_sigma(signal + sigma * rng.standard_normal(t.size))
+    assert est == pytest.approx(sigma, rel=0.03)  # MAD sampling error ~1 % at n = 2e4
+
+
+def test_ljung_box_accepts_white_and_rejects_ar1():
+    rng = np.random.default_rng(1)
+    white = rng.standard_normal(500)
+    ar = np.empty(500)
+    ar[0] = 0.0
+    for i in range(1, 500):
+        ar[i] = 0.7 * ar[i - 1] + white[i]
+    assert ljung_box(white)[1] > 0.01  # seeded: p = 0.5ish; a 1 % test
+    assert ljung_box(ar)[1] < 1e-6
+    assert spectral_flatness(white) > spectral_flatness(ar)
+
+
+def test_cross_correlation_finds_a_known_lag():
+    rng = np.random.default_rng(2)
+    x = np.cumsum(rng.standard_normal(3000))
+    delay = 25  # samples = 0.25 s at 100 Hz
+    measured = np.r_[np.full(delay, x[0]), x[:-delay]]
+    _, _, best = cross_correlation_lag(measured, x, 100.0)
+    assert best == pytest.approx(0.25)
+
+
+def test_penalty_rejects_equal_fits_and_accepts_large_gains():
+    n = 1000
+    assert penalised_gain(1000.0, 1000.0, n, 0.0, 1) < 0.0
+    assert penalised_gain(1000.0, 995.0, n, 0.0, 1) < 0.0  # 0.5 % of cost: chance
+    assert penalised_gain(4000.0, 1000.0, n, 0.0, 1) > 0.0
+    # the same gain on strongly autocorrelated residuals is worth less
+    assert penalised_gain(1100.0, 1000.0, n, 0.95, 1) < penalised_gain(1100.0, 1000.0, n, 0.0, 1)
+    assert effective_samples(n, 0.0) == n and effective_samples(n, 0.5) == pytest.approx(n / 3)
+
+
+@pytest.mark.parametrize('space', [ParameterSpace('effects.sensor_lag', 0.0, 3.0),
+                                   ParameterSpace('effects.creep_time_constant', 2.0, 400.0,
+                                                  log=True)])
+def test_parameter_space_round_trip(space):
+    for value in (space.low, 0.5 * (space.low + space.high), space.high):
+        assert space.from_unit(space.to_unit(value)) == pytest.approx(value, rel=1e-12)
+    assert space.from_unit(-1.0) == space.low and space.from_unit(2.0) == space.high
+    assert math.isfinite(space.to_unit(space.high * 10))
