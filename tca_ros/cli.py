@@ -289,9 +289,13 @@ def build_parser():
     sp = sub.add_parser('diagnose', formatter_class=fmt,
                         help='find what the model gets wrong in a recording (CSV or MCAP)')
     sp.add_argument('data', help='recording: CSV with # key: value header, or MCAP bag')
-    sp.add_argument('--config', default='free_stroke', help='nominal params file')
-    sp.add_argument('--model', choices=MODELS, default='cst', help='kinetostatic model')
-    sp.add_argument('--report', default=None, help='directory for report.md, PNGs, JSON')
+    sp.add_argument('--config', default=None,
+                    help="nominal params file (default: the recording's '# tca:' header)")
+    sp.add_argument('--model', choices=MODELS, default='cst',
+                    help='kinetostatic model of the fits (cst: fastest; rod: most exact)')
+    sp.add_argument('--report', default=None,
+                    help='directory (DIR) for report.md, PNG plots, diagnosis.json and '
+                         'the extended params YAML')
     sp.add_argument('--quiet', action='store_true', help='no progress bar')
     sp.set_defaults(func=cmd_diagnose)
 

@@ -19,7 +19,7 @@ References
 ----------
 [1] Sun et al., IEEE T-RO 2022, Eqs. (4), (8)-(18), Algorithm 1, Appendix C.
 """
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 import functools
 import math
 
@@ -30,6 +30,7 @@ from scipy.optimize import brentq
 from tca_ros.model.fiber import unit_untwist
 from tca_ros.model.kinetostatics import cst_compliance, KinetostaticModel
 from tca_ros.model.moduli import load_torsion_strain, section_stiffness
+from tca_ros.model.params import EffectParams
 from tca_ros.rod.helix import helix_centreline, uniform_helix_equilibrium
 from tca_ros.rod.reference import conical_spiral_reference, helix_reference, helix_strain
 from tca_ros.rod.reference import integrate_strains
@@ -282,9 +283,28 @@ class RodKinetostatics(KinetostaticModel):
         return brentq(gap, lo, hi, xtol=1e-13, rtol=1e-13)
 
 
-@functools.lru_cache(maxsize=8)
 def cached_rod_model(params):
-    """Return the RodKinetostatics of ``params``, built once per parameter set."""
+    """Return the RodKinetostatics of ``params``, built once per mechanical state.
+
+    The table depends only on the fiber, coil, moduli, ambient temperature and the
+    modulus-softening effect; parameter sets differing elsewhere (thermal constants,
+    mass, resistance, other effects) share one table.
+    """
+    return _rod_model_for(mechanical_params(params))
+
+
+def mechanical_params(params):
+    """Return ``params`` with every field the rod table does not read set to default."""
+    thermal = replace(params.thermal, convection_coefficient=0.0, surface_factor=1.0)
+    return replace(params, tca_type='', model='rod', source='', thermal=thermal,
+                   dynamics=replace(params.dynamics, mass=0.0, load=0.0, damping=0.0),
+                   electrical=replace(params.electrical, resistance=1.0,
+                                      temperature_coefficient=0.0, strain_coefficient=0.0),
+                   effects=EffectParams(extra_softening=params.effects.extra_softening))
+
+
+@functools.lru_cache(maxsize=8)
+def _rod_model_for(params):
     return RodKinetostatics(params)
 
 
