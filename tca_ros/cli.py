@@ -12,6 +12,7 @@ import time as wallclock
 
 import numpy as np
 
+from tca_ros.diagnosis.data import DataError, parse_number
 from tca_ros.model.params import GRAVITY, load_params, MODELS, ParameterError
 
 EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT = 0, 1, 2
@@ -51,16 +52,7 @@ def read_profile(path):
         if len(row) != len(header):
             raise InputError(f'{path}: row {i}: {len(row)} fields, expected {len(header)}')
         for name, j in cols.items():
-            text = row[j].strip()
-            try:
-                value = float(text)
-            except ValueError:
-                raise InputError(f"{path}: row {i}, column '{name}': {text!r} is not a "
-                                 'number') from None
-            if not math.isfinite(value):
-                raise InputError(f"{path}: row {i}, column '{name}': {text!r} is not "
-                                 'finite')
-            data[name].append(value)
+            data[name].append(parse_number(row[j], path, i, name))
     if len(data['time']) < 2:
         raise InputError(f'{path}: needs at least 2 data rows, found {len(data["time"])}')
     t = np.array(data['time'])
@@ -320,14 +312,11 @@ def main(argv=None, out=None):
     args = build_parser().parse_args(argv)
     try:
         return args.func(args, out)
-    except (InputError, ParameterError) as exc:
+    except (InputError, DataError, ParameterError) as exc:
         sys.stderr.write(f'tca_sim {args.command}: error: {exc}\n')
         return EXIT_BAD_INPUT
     except ValueError as exc:
         first = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-        if type(exc).__name__ == 'DataError':
-            sys.stderr.write(f'tca_sim {args.command}: error: {first}\n')
-            return EXIT_BAD_INPUT
         sys.stderr.write(f'tca_sim {args.command}: error: {first}\n')
         return EXIT_FAILED
     except BrokenPipeError:

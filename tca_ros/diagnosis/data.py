@@ -98,7 +98,8 @@ def read_record(path):
     return read_csv_record(path)
 
 
-def _number(text, path, row, column):
+def parse_number(text, path, row, column):
+    """Return ``text`` as a finite float, or raise DataError naming file, row, column."""
     try:
         value = float(text)
     except ValueError:
@@ -138,7 +139,8 @@ def read_csv_record(path):
             column = columns[min(len(cells), len(columns) - 1)]
             raise DataError(f'{path}: row {number}, column {column!r}: expected '
                             f'{len(columns)} values, found {len(cells)}')
-        rows.append((number, [_number(c, path, number, col) for c, col in zip(cells, columns)]))
+        rows.append((number, [parse_number(c, path, number, col)
+                              for c, col in zip(cells, columns)]))
     if columns is None:
         raise DataError(f'{path}: row 1, column {TIME!r}: no column header line '
                         f'({",".join(REQUIRED_COLUMNS)},...)')
@@ -178,7 +180,7 @@ def _check_meta(meta, path):
             raise DataError(f'{path}: row 1, column {key!r}: header line "# {key}: ..." '
                             'missing')
     for key in ('mass_kg', 'sample_rate_hz'):
-        value = _number(meta[key], path, _header_row(key), key)
+        value = parse_number(meta[key], path, _header_row(key), key)
         low = 0.0 if key == 'mass_kg' else 1e-9
         if value < low:
             raise DataError(f'{path}: row {_header_row(key)}, column {key!r}: {value:g} must '
