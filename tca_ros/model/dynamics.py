@@ -279,6 +279,7 @@ class SimulationResult:
     resistance: np.ndarray  # ohm
     tension: np.ndarray  # N
     velocity: np.ndarray  # m/s, contraction rate
+    true_displacement: np.ndarray  # m, contraction before the (lagged) sensor
     substeps: int  # substeps per physics step used at the start
 
 
@@ -317,7 +318,7 @@ def simulate(params, time, power, load=None, model=None, physics_rate=1000.0,
         out[:, i] = _sample(state)
     return SimulationResult(time=time, power=power, load=load, displacement=out[0],
                             temperature=out[1], resistance=out[2], tension=out[3],
-                            velocity=out[4], substeps=n0)
+                            velocity=out[4], true_displacement=out[5], substeps=n0)
 
 
 def _sample(s):
