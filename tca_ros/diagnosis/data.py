@@ -23,13 +23,17 @@ import os
 
 import numpy as np
 
+from tca_ros.model.params import GRAVITY
+
 REQUIRED_COLUMNS = ('time', 'power', 'load', 'displacement')
 OPTIONAL_COLUMNS = ('temperature', 'resistance')
 REQUIRED_HEADER = ('tca', 'mass_kg', 'sample_rate_hz')
 JITTER_TOLERANCE = 0.01  # relative spread of sample intervals accepted as uniform
 RATE_TOLERANCE = 0.05  # relative mismatch allowed between sample_rate_hz and the time column
 MIN_SAMPLES = 20  # fewer samples cannot be split into train and held-out parts
-BAG_TOPICS = ('power_cmd', 'load', 'displacement', 'temperature')
+# 'power' is the power the node applied (after clamping, watchdog, V^2/R); preferred over
+# the commanded 'power_cmd' when the bag has it
+BAG_TOPICS = ('power', 'power_cmd', 'load', 'displacement', 'temperature')
 TIME, DISPLACEMENT = 'time', 'displacement'  # column names quoted in errors
 
 
@@ -269,7 +273,8 @@ def read_bag_record(path, sample_rate=None, tca='', mass_kg=None):
     Topics are matched by their last name (``/finger1/displacement`` counts as
     ``displacement``): ``power_cmd`` and ``load`` (std_msgs/Float64, held until the
     next message), ``displacement`` (std_msgs/Float64, m) and optionally
-    ``temperature`` (sensor_msgs/Temperature, degC). Times are the recording times;
+    ``temperature`` (sensor_msgs/Temperature, degC); the node's ``power`` topic (the
+    power it applied) replaces ``power_cmd`` when present. Times are the recording times;
     the grid starts at the first displacement message and has the displacement
     topic's median rate unless ``sample_rate`` (Hz) is given. ``tca`` and
     ``mass_kg`` fill the header a bag lacks (the caller takes them from the config).
@@ -300,10 +305,11 @@ def read_bag_record(path, sample_rate=None, tca='', mass_kg=None):
         raise DataError(f'{path}: row 1, column {TIME!r}: not a readable rosbag2 recording '
                         f'({type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ""})'
                         ) from None
-    for name in ('power_cmd', 'displacement'):
+    power_topic = 'power' if series['power'][0] else 'power_cmd'
+    for name in (power_topic, 'displacement'):
         if not series[name][0]:
-            raise DataError(f'{path}: row 1, column {name!r}: topic {name!r} not in the '
-                            'recording')
+            raise DataError(f'{path}: row 1, column {name!r}: topic {name!r} (or power) not '
+                            'in the recording')
     origin = series['displacement'][0][0]
     for name in series:
         series[name] = ([(s - origin) * 1e-9 for s in series[name][0]], series[name][1])
@@ -327,8 +333,8 @@ def read_bag_record(path, sample_rate=None, tca='', mass_kg=None):
         return np.where(idx >= 0, values[np.clip(idx, 0, None)], first)
 
     mass = float(mass_kg) if mass_kg is not None else 0.0
-    power = np.clip(hold('power_cmd', 0.0), 0.0, None)
-    load = hold('load', None if series['load'][0] else mass * 9.81)
+    power = np.clip(hold(power_topic, 0.0), 0.0, None)
+    load = hold('load', None if series['load'][0] else mass * GRAVITY)
     disp = np.interp(grid, t_x - t0, x)
     temp = None
     if series['temperature'][0]:

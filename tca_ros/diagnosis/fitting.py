@@ -245,6 +245,8 @@ class FitProblem:
         self.correction = {c: np.zeros(self.m) for c in self.channels}
         self._cache.clear()
         coarse = self.simulate_coarse(values)
+        if coarse is None:  # e.g. the coarse grid beyond the explicit stability limit
+            raise ValueError(f'values {values}: the coarse fit grid cannot simulate them')
         self.correction = {c: getattr(full, c)[self.index] - coarse[c] for c in self.channels}
         self._cache.clear()
         return full

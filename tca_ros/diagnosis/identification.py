@@ -191,8 +191,10 @@ def diagnose(data_path, config=None, report_dir=None, model='cst', progress=True
     else:
         record = read_record(data_path)
     config = config or str(record.meta['tca'])
-    params = load_params(config, **{'dynamics.mass': record.mass,
-                                    'dynamics.load': float(record.load[0])})
+    # the extended params file must name the model its effects were fitted with
+    params = load_params(config, model=model,
+                         **{'dynamics.mass': record.mass,
+                            'dynamics.load': float(record.load[0])})
     bar = Progress(progress, EXPECTED_SIMULATIONS)
     problem = FitProblem(record, params, model=model, physics_rate=physics_rate,
                          fit_rate=fit_rate or fitting.FIT_RATE_HZ,
@@ -215,10 +217,15 @@ def diagnose(data_path, config=None, report_dir=None, model='cst', progress=True
                                   float(nominal.displacement[train].max()),
                                   initial_temperature=initial, measured_peak=measured_peak)
     untestable = [c.name for c in candidates if not c.starts]
-    effects, values, rounds = search_effects(problem, candidates)
-    bar.label = 'extended'
-    extended = problem.simulate_full(values) if effects else nominal
-    bar.close()
+    try:
+        effects, values, rounds = search_effects(problem, candidates)
+        bar.label = 'extended'
+        extended = problem.simulate_full(values) if effects else nominal
+    except (ValueError, ArithmeticError) as exc:  # a candidate the stepper cannot run
+        raise DiagnosisError(f'{data_path}: the effect search failed with model={model} '
+                             f'({str(exc).splitlines()[0]})') from None
+    finally:
+        bar.close()
     channels = problem.channels
     nominal_rmse = heldout_rmse(record, nominal, problem.full_split, channels)
     extended_rmse = heldout_rmse(record, extended, problem.full_split, channels)
