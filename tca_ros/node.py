@@ -27,7 +27,7 @@ from std_msgs.msg import Float64
 from std_srvs.srv import Trigger
 from visualization_msgs.msg import Marker
 
-from tca_ros.model.dynamics import TcaSimulator
+from tca_ros.model.dynamics import StabilityError, TcaSimulator
 from tca_ros.model.params import (
     check_value, from_flat_dict, ParameterError, ParamSpec, SCHEMA, SPECS)
 from tca_ros.model.resistance import power_from_voltage
@@ -136,24 +136,33 @@ def validate_node_values(values):
     return out
 
 
+def physics_steps_per_tick(node_values):
+    """Return the physics steps per publish period (physics_rate / publish_rate, >= 1)."""
+    return max(1, round(node_values['physics_rate'] / node_values['publish_rate']))
+
+
+def physics_dt(node_values):
+    """Return the physics step (s): 1/physics_rate rounded to fill a publish period."""
+    return 1.0 / (node_values['publish_rate'] * physics_steps_per_tick(node_values))
+
+
 def build_simulator(params, node_values, kinetostatics=None):
     """Return a TcaSimulator for params and node values, or raise ParameterError.
 
-    The physics step is 1/physics_rate, rounded so that whole steps fill one publish
-    period. Model import failures and the explicit stability limit become one-line
-    ParameterErrors naming the parameter.
+    Model failures and the explicit stability limit become one-line ParameterErrors
+    naming the parameter.
     """
-    steps = max(1, round(node_values['physics_rate'] / node_values['publish_rate']))
-    dt = 1.0 / (node_values['publish_rate'] * steps)
     try:
-        return TcaSimulator(params, dt=dt, kinetostatics=kinetostatics)
+        return TcaSimulator(params, dt=physics_dt(node_values), kinetostatics=kinetostatics)
     except ImportError as exc:
         raise ParameterError(
             f"parameter 'model' = {params.model!r}: not available in this installation "
             f'({exc}); use cst or love') from None
-    except ValueError as exc:  # StabilityError and model range errors
+    except StabilityError as exc:
         raise ParameterError(f'{exc} (physics_rate = {node_values["physics_rate"]:g} Hz)') \
             from None
+    except (ValueError, RuntimeError) as exc:  # model range errors, a failed rod table
+        raise ParameterError(str(exc).splitlines()[0]) from None
 
 
 def _descriptor(spec, read_only=False, with_range=True):
@@ -370,7 +379,7 @@ class TcaSimNode(Node):
             self._await_deadline = time.monotonic() + self._cfg['lockstep_timeout']
 
     def _steps_per_tick(self):
-        return max(1, round(self._cfg['physics_rate'] / self._cfg['publish_rate']))
+        return physics_steps_per_tick(self._cfg)
 
     # -- physics ----------------------------------------------------------------------
     def _command_power(self, now_ns):
@@ -386,9 +395,15 @@ class TcaSimNode(Node):
                     f'no power or voltage command for {timeout:g} s: power set to 0')
             return 0.0
         kind, value = self._drive
-        power = power_from_voltage(value, self._sim.state.resistance) if kind == 'voltage' \
-            else value
-        return min(max(power, 0.0), self._cfg['max_power'])
+        if kind == 'voltage':
+            resistance = self._sim.state.resistance
+            if not resistance > 0.0:  # R(T, x) law taken outside its range
+                self.get_logger().warning(
+                    f'resistance {resistance:g} ohm is not positive: voltage drive gives '
+                    'power 0 (check electrical.*)', throttle_duration_sec=WARN_PERIOD)
+                return 0.0
+            value = power_from_voltage(value, resistance)
+        return min(max(value, 0.0), self._cfg['max_power'])
 
     def _advance(self, n_steps):
         """Run n physics steps with the current command and load."""
@@ -396,13 +411,19 @@ class TcaSimNode(Node):
         for i in range(n_steps):
             if i == 0 or self._drive[0] == 'voltage':  # V^2 / R follows R(T, x)
                 self._power = self._command_power(now)
-            state = self._sim.step(self._power, self._load)
-            temp = state.temperature
-            if not math.isfinite(temp) or not math.isfinite(state.elongation):
+            try:
+                state = self._sim.step(self._power, self._load)
+                diverged = not (math.isfinite(state.temperature)
+                                and math.isfinite(state.elongation))
+            except (ValueError, ArithmeticError) as exc:  # e.g. StabilityError
+                state, diverged = self._sim.state, True
+                self.get_logger().error(f'physics step failed: {exc}')
+            if diverged:
                 self.get_logger().error('the physics diverged: muscle marked broken; reset')
                 self._break(self._frozen_values(state))
                 self._sim.reset(load=self._load)
                 continue
+            temp = state.temperature
             if temp > self._cfg['max_temperature'] and not self._overheated:
                 self._overheated = True
                 self.get_logger().error(
@@ -416,7 +437,6 @@ class TcaSimNode(Node):
                     f'{self._cfg["melt_temperature"]:g} degC: the muscle broke '
                     '(tension 0, resistance inf) until ~/reset')
                 self._break(self._frozen_values(state))
-                self._power = 0.0
 
     @staticmethod
     def _frozen_values(state):
@@ -425,6 +445,7 @@ class TcaSimNode(Node):
     def _break(self, frozen):
         self._broken = True
         self._frozen = frozen
+        self._power = 0.0
 
     def _reset_sim(self, temperature=None):
         """Return to the loaded equilibrium at temperature (degC, default ambient)."""
@@ -598,22 +619,25 @@ class TcaSimNode(Node):
         node_values = dict(self._cfg)
         for p in owned:
             (tca_values if p.name in SPECS else node_values)[p.name] = p.value
+        if not self._owns_time:
+            self._catch_up()  # up to now with the old values
         try:
             params = from_flat_dict(tca_values, source='ros parameters')
             cfg = validate_node_values(node_values)
             rebuild = params != self._params or any(cfg[k] != self._cfg[k] for k in _REBUILD)
-            if rebuild:
-                shared = self._sim.kinetostatics if params == self._params else None
-                sim = build_simulator(params, cfg, kinetostatics=shared)
+            if rebuild and params == self._params:
+                # same TCA, new step: keep the whole state (set_dt keeps the old on failure)
+                self._sim.set_dt(physics_dt(cfg))
+            elif rebuild:
+                sim = build_simulator(params, cfg)
+        except StabilityError as exc:
+            return SetParametersResult(
+                successful=False, reason=f'{exc} (physics_rate = {cfg["physics_rate"]:g} Hz)')
         except ParameterError as exc:
             return SetParametersResult(successful=False, reason=str(exc))
-        if not self._owns_time:
-            self._catch_up()
         old_cfg, self._cfg = self._cfg, cfg
         if rebuild:
-            if params == self._params:
-                self._sim.set_dt(sim.dt)  # same TCA, new step: keep the whole state
-            else:
+            if params != self._params:
                 temperature = self._sim.state.temperature
                 self._params, self._sim = params, sim
                 self._reset_sim(temperature)

@@ -138,3 +138,16 @@ def test_effects_default_to_the_nominal_model(free_stroke):
                          physics_rate=200.0)
         change = np.max(np.abs(other.displacement - base.displacement))
         assert change > 1e-5, name  # each effect changes what the sensor sees (m)
+
+
+def test_set_dt_replans_substeps_and_keeps_the_old_step_on_failure(free_stroke):
+    sim = TcaSimulator(free_stroke.with_values(**{'dynamics.mass': 1e-7}), model='cst',
+                       dt=1e-4)
+    assert sim.substeps() == 1
+    sim.set_dt(1e-3)  # limit 2/omega ~ 1.3e-4 s: 9 substeps
+    assert sim.dt == 1e-3 and sim.substeps() > 1
+    with pytest.raises(StabilityError):
+        sim.set_dt(1.0)  # would need > 1000 substeps
+    assert sim.dt == 1e-3
+    with pytest.raises(ValueError, match='dt = -1.0: must be a positive number of seconds'):
+        sim.set_dt(-1.0)

@@ -149,9 +149,17 @@ class TcaSimulator:
         return float(dt)
 
     def set_dt(self, dt):
-        """Change the physics step (s), keeping the state; re-plan the substeps."""
-        self.dt = self._checked_dt(dt)
-        self._substeps = self.check_step()
+        """Change the physics step (s), keeping the state; re-plan the substeps.
+
+        Raises StabilityError (and keeps the old step) when dt needs more than
+        MAX_SUBSTEPS substeps.
+        """
+        old, self.dt = self.dt, self._checked_dt(dt)
+        try:
+            self._substeps = self.check_step()
+        except StabilityError:
+            self.dt = old
+            raise
         self._steps_since_check = 0
 
     def stability_limit(self):
