@@ -177,7 +177,7 @@ def cmd_bench(args, out):
     """Print steps per second and wall time per simulated minute for each model."""
     from tca_ros.model.dynamics import TcaSimulator
     p = _params(args)
-    models = [m for m in MODELS if _model_available(m)]
+    models = MODELS
     out.write(f'# thermal + kinetostatic dynamics, {p.tca_type}, physics at 1 kHz, '
               f'{args.seconds:g} s simulated, one core\n')
     out.write('# f_rod solve: eq. (11) fixed point from scratch (statics); f_rod step: one\n'
@@ -206,16 +206,6 @@ def cmd_bench(args, out):
     return EXIT_OK
 
 
-def _model_available(name):
-    if name != 'rod':
-        return True
-    try:
-        import tca_ros.model.rod_model  # noqa: F401
-    except ImportError:
-        return False
-    return True
-
-
 def cmd_diagnose(args, out):
     """Diagnose a recording; print the summary; write the report."""
     from tca_ros.diagnosis import diagnose, format_summary
@@ -231,11 +221,7 @@ def cmd_demo(args, out):
     os.makedirs(args.out, exist_ok=True)
     run_statics_demo(args.config, args.out, out)
     if not args.no_node:
-        try:
-            from tca_ros.demo import run_demo
-        except ImportError:
-            out.write('(closed-loop node demo not available in this build)\n')
-            return EXIT_OK
+        from tca_ros.demo import run_demo
         run_demo(args.out, sim_seconds=args.seconds, config=args.config)
     return EXIT_OK
 

@@ -58,14 +58,6 @@ def _stop(proc, log):
     log.close()
 
 
-def _rod_available():
-    try:
-        import tca_ros.model.rod_model  # noqa: F401
-    except ImportError:
-        return False
-    return True
-
-
 def run_demo(out_dir, sim_seconds=30.0, config='free_stroke', model=None):
     """Run simulator + controller for sim_seconds (s) of sim time; return a summary dict.
 
@@ -86,9 +78,6 @@ def run_demo(out_dir, sim_seconds=30.0, config='free_stroke', model=None):
     out.mkdir(parents=True, exist_ok=True)
     path = resolve_config(config)
     model = model or load_params(path).model
-    if model == 'rod' and not _rod_available():
-        print('demo: the rod model is not installed; using cst')
-        model = 'cst'
     env = os.environ.copy()
     env['ROS_DOMAIN_ID'] = str(random.randint(150, 200))  # private graph for the demo
     env['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'

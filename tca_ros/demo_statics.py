@@ -4,23 +4,10 @@ import os
 import numpy as np
 
 from tca_ros.model.dynamics import simulate, static_displacement
-from tca_ros.model.kinetostatics import make_kinetostatic_model
 from tca_ros.model.params import GRAVITY, load_params, MODELS
 
 DEMO_MASSES = (0.002, 0.03, 0.06)  # kg, the free-stroke weights of Fig. 10 [1]
 DEMO_TEMPS = np.arange(25.0, 160.0 + 1e-9, 5.0)  # degC, Sec. V-D2
-
-
-def available_models():
-    """Return the kinetostatic models importable in this build."""
-    names = []
-    for name in MODELS:
-        try:
-            make_kinetostatic_model(load_params('free_stroke'), name)
-        except ImportError:
-            continue
-        names.append(name)
-    return names
 
 
 def run_statics_demo(config, out_dir, out):
@@ -30,7 +17,7 @@ def run_statics_demo(config, out_dir, out):
     import matplotlib.pyplot as plt
 
     p = load_params(config)
-    models = available_models()
+    models = MODELS
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.2))
     out.write(f'Statics of the {p.tca_type} TCA: contraction (mm) at 160 degC\n')
     out.write(f'{"mass (g)":>9}' + ''.join(f'{m:>9}' for m in models) + '\n')

@@ -28,14 +28,12 @@ from std_srvs.srv import Trigger
 from visualization_msgs.msg import Marker
 
 from tca_ros.model.dynamics import StabilityError, TcaSimulator
+from tca_ros.model.kinetostatics import fixed_coil_centreline
 from tca_ros.model.params import (
     check_value, from_flat_dict, ParameterError, ParamSpec, SCHEMA, SPECS)
 from tca_ros.model.resistance import power_from_voltage
+from tca_ros.model.rod_model import centreline as rod_centreline
 
-try:  # the rod engineer's exact centreline; a uniform helix until it lands
-    from tca_ros.model.rod_model import centreline as _rod_centreline
-except ImportError:
-    _rod_centreline = None
 
 STATE_QOS = QoSProfile(depth=10)  # reliable: serves reliable and best-effort readers
 COMMAND_QOS = QoSProfile(depth=10)
@@ -99,22 +97,6 @@ READ_ONLY = {s.name for s, ro in zip(NODE_SCHEMA, _READ_ONLY) if ro}
 _REBUILD = {'physics_rate', 'publish_rate'}
 
 
-def helix_centreline(params, natural_length, elongation, n_points):
-    """Return the centreline (3, n) (m) of a uniform helix of length l* + elongation.
-
-    The coil count N = l_t cos(alpha*) / (2 pi r*) and the fiber length l_t are kept
-    (eq. (26)): sin(alpha) = l / l_t, r = l_t cos(alpha) / (2 pi N). The clamp is at the
-    origin and the TCA hangs along -z (frame ``tca_base``).
-    """
-    fiber, coil = params.fiber, params.coil
-    coils = fiber.length * math.cos(coil.pitch_angle) / (2.0 * math.pi * coil.radius)
-    length = min(max(natural_length + elongation, 0.0), fiber.length)
-    radius = math.sqrt(max(fiber.length ** 2 - length ** 2, 0.0)) / (2.0 * math.pi * coils)
-    s = np.linspace(0.0, 1.0, int(n_points))
-    phase = 2.0 * math.pi * coils * s
-    return np.vstack((radius * np.cos(phase), radius * np.sin(phase), -length * s))
-
-
 def validate_node_values(values):
     """Return the node parameters coerced, or raise ParameterError (one line).
 
@@ -154,10 +136,6 @@ def build_simulator(params, node_values, kinetostatics=None):
     """
     try:
         return TcaSimulator(params, dt=physics_dt(node_values), kinetostatics=kinetostatics)
-    except ImportError as exc:
-        raise ParameterError(
-            f"parameter 'model' = {params.model!r}: not available in this installation "
-            f'({exc}); use cst or love') from None
     except StabilityError as exc:
         raise ParameterError(f'{exc} (physics_rate = {node_values["physics_rate"]:g} Hz)') \
             from None
@@ -520,23 +498,21 @@ class TcaSimNode(Node):
         conical TCA; for cst and love a helix of the current length (fixed coil count)
         shows the same stroke without building the rod table.
         """
-        return _rod_centreline is not None and (
-            self._params.model == 'rod' or self._params.coil.shape != 'helix')
+        return self._params.model == 'rod' or self._params.coil.shape != 'helix'
 
     def _warm_up_shape(self):
         """Build the rod centreline's tables now rather than stall the first Marker."""
         if self._cfg['shape_rate'] > 0.0 and self._rod_shape():
             s = self._sim.state
-            _rod_centreline(self._params, s.elongation, s.temperature, 2)
+            rod_centreline(self._params, s.elongation, s.temperature, 2)
 
     def _publish_shape(self, stamp):
         s = self._sim.state
         n = int(self._cfg['shape_points'])
         if self._rod_shape():
-            points = _rod_centreline(self._params, s.elongation, s.temperature, n)
+            points = rod_centreline(self._params, s.elongation, s.temperature, n)
         else:
-            points = helix_centreline(self._params, self._sim.kinetostatics.natural_length,
-                                      s.elongation, n)
+            points = fixed_coil_centreline(self._params, s.elongation, n)
         marker = Marker()
         marker.header.stamp = stamp
         marker.header.frame_id = self._cfg['base_frame']

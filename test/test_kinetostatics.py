@@ -112,3 +112,15 @@ def test_contact_elongation(free_stroke):
 def test_unknown_model_is_rejected(free_stroke):
     with pytest.raises(ValueError, match="model = 'spring'"):
         ks.make_kinetostatic_model(free_stroke, 'spring')
+
+
+def test_fixed_coil_centreline_is_the_reference_helix_at_rest(free_stroke):
+    from tca_ros.model.rod_model import centreline
+    fixed = ks.fixed_coil_centreline(free_stroke, 0.0, 400)
+    exact = centreline(free_stroke, 0.0, 25.0, 400)
+    # same helix, same handedness and clamp convention (to 1 um: the exact one is a solve)
+    np.testing.assert_allclose(fixed, exact, atol=1e-6)
+    shorter = ks.fixed_coil_centreline(free_stroke, -0.01, 50)
+    rest = ks.natural_length(free_stroke.fiber, free_stroke.coil)
+    assert shorter[2, -1] == pytest.approx(-(rest - 0.01))
+    assert np.hypot(shorter[0], shorter[1]).max() > free_stroke.coil.radius  # r grows

@@ -20,6 +20,8 @@ Conventions (docs/decisions.md)
 """
 import math
 
+import numpy as np
+
 from tca_ros.model.fiber import unit_untwist
 from tca_ros.model.moduli import section_stiffness
 
@@ -211,6 +213,23 @@ def contact_elongation(params):
         return -math.inf
     return params.fiber.length * math.sin(c.min_pitch_angle) - natural_length(
         params.fiber, c)
+
+
+def fixed_coil_centreline(params, elongation, n_points):
+    """Return the centreline (3, n) (m) of a uniform helix of length l* + elongation.
+
+    Love's kinematics: the coil count N = l_t cos(alpha*) / (2 pi r*) (eq. (24)) and the
+    fiber length are kept, sin(alpha) = l / l_t (eq. (26)), r = l_t cos(alpha) / (2 pi N).
+    Clamp at the origin, descending along -Z, right-handed (the coiling angle decreases
+    about +Z), as the rod model's centreline. A cheap display shape for cst and love.
+    """
+    fiber, coil = params.fiber, params.coil
+    coils = fiber.length * math.cos(coil.pitch_angle) / (2.0 * math.pi * coil.radius)
+    length = min(max(natural_length(fiber, coil) + elongation, 0.0), fiber.length)
+    radius = math.sqrt(max(fiber.length ** 2 - length ** 2, 0.0)) / (2.0 * math.pi * coils)
+    s = np.linspace(0.0, 1.0, int(n_points))
+    phase = -2.0 * math.pi * coils * s
+    return np.vstack((radius * np.cos(phase), radius * np.sin(phase), -length * s))
 
 
 _MODELS = {'love': LoveModel, 'cst': CstModel}
