@@ -9,8 +9,9 @@ where the stop would cut the nominal peak contraction of the record.
 from dataclasses import dataclass
 import math
 
-from tca_ros.model.effects import CATALOGUE
-from tca_ros.model.kinetostatics import make_kinetostatic_model
+from tca_ros.model.effects import CATALOGUE, true_ambient
+from tca_ros.model.kinetostatics import loaded_length, make_kinetostatic_model
+from tca_ros.model.kinetostatics import pitch_angle_of_length
 from tca_ros.model.params import SPECS
 
 
@@ -93,18 +94,16 @@ def contact_space(params, model, load0, peak_contraction, measured_peak=None):
     low = math.degrees(params.coil.min_pitch_angle)
     high = math.degrees(params.coil.pitch_angle) - CONTACT_MARGIN_DEG
     km = make_kinetostatic_model(params, model)
-    ambient = params.thermal.ambient_temperature + params.effects.ambient_offset
-    loaded = km.natural_length + km.equilibrium_elongation(load0, ambient)
+    loaded = loaded_length(km, load0, true_ambient(params.thermal, params.effects))
     starts = []
     fractions = list(CONTACT_START_FRACTIONS)
     if measured_peak is not None and 0.0 < measured_peak < peak_contraction:
         fractions.append(measured_peak / peak_contraction)
     for fraction in fractions:
-        ratio = (loaded - fraction * peak_contraction) / params.fiber.length
-        if -1.0 < ratio < 1.0:
-            angle = math.degrees(math.asin(ratio))
-            if low < angle < high:
-                starts.append((angle,))
+        angle = math.degrees(pitch_angle_of_length(loaded - fraction * peak_contraction,
+                                                   params.fiber))
+        if low < angle < high:
+            starts.append((angle,))
     space = ParameterSpace('coil.min_pitch_angle_deg', low, high)
     return Candidate('coil_contact', (space,), tuple(starts))
 

@@ -15,8 +15,9 @@ import numpy as np
 from tca_ros.diagnosis.data import Record
 from tca_ros.diagnosis.fitting import TRAIN_FRACTION
 from tca_ros.model.dynamics import simulate
-from tca_ros.model.effects import CATALOGUE
-from tca_ros.model.kinetostatics import make_kinetostatic_model
+from tca_ros.model.effects import CATALOGUE, true_ambient
+from tca_ros.model.kinetostatics import loaded_length, make_kinetostatic_model
+from tca_ros.model.kinetostatics import pitch_angle_of_length
 from tca_ros.model.params import GRAVITY, load_params
 
 #: Physical magnitude ranges the generator draws from: dotted name -> (low, high, log).
@@ -144,8 +145,7 @@ def contact_angle_for_record(params, time, power, load, model, physics_rate, rng
     train = time <= TRAIN_FRACTION * time[-1]
     peak = float(min(contraction[train].max(), contraction[~train].max()))
     km = make_kinetostatic_model(free, model)
-    loaded = km.natural_length + km.equilibrium_elongation(
-        float(load[0]), free.thermal.ambient_temperature + free.effects.ambient_offset)
+    loaded = loaded_length(km, float(load[0]), true_ambient(free.thermal, free.effects))
     length = params.fiber.length
     lo = math.radians(math.degrees(params.coil.min_pitch_angle) + CONTACT_ANGLE_MARGIN_DEG)
     hi = math.radians(math.degrees(params.coil.pitch_angle) - CONTACT_ANGLE_MARGIN_DEG)
@@ -154,7 +154,7 @@ def contact_angle_for_record(params, time, power, load, model, physics_rate, rng
     if stop_hi <= stop_lo:
         return None
     stop = rng.uniform(stop_lo, stop_hi)
-    return math.degrees(math.asin((loaded - stop) / length))
+    return math.degrees(pitch_angle_of_length(loaded - stop, params.fiber))
 
 
 def make_synthetic_record(seed, effects='random', n_effects=1, duration=240.0,

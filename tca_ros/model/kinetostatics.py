@@ -215,6 +215,15 @@ def contact_elongation(params):
         params.fiber, c)
 
 
+def loaded_length(model, load, temperature):
+    """Return the axial length l* + y (m) under load (N) at temperature (degC).
+
+    ``model`` is a KinetostaticModel; coil contact (Sec. V-D1) bounds y from below.
+    """
+    y = model.equilibrium_elongation(load, temperature)
+    return model.natural_length + max(y, contact_elongation(model.params))
+
+
 def fixed_coil_centreline(params, elongation, n_points):
     """Return the centreline (3, n) (m) of a uniform helix of length l* + elongation.
 
