@@ -156,3 +156,11 @@ def test_shipped_example_recording_is_a_valid_record():
     assert rec.meta['tca'] == 'free_stroke'
     assert rec.duration == pytest.approx(240.0) and rec.sample_rate == pytest.approx(20.0)
     assert rec.temperature is not None and rec.resistance is not None
+
+
+def test_bad_header_value_names_its_own_line(tmp_path):
+    path = tmp_path / 'reordered.csv'
+    path.write_text('# a comment first\n# sample_rate_hz: 10\n# tca: free_stroke\n'
+                    '# mass_kg: heavy\ntime,power,load,displacement\n0,0,0,0\n')
+    with pytest.raises(DataError, match=r"row 4, column 'mass_kg': 'heavy' is not a number"):
+        read_record(str(path))

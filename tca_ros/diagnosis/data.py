@@ -122,7 +122,7 @@ def read_csv_record(path):
             lines = fh.read().splitlines()
     except (OSError, UnicodeDecodeError) as exc:
         raise DataError(f'{path}: cannot read ({exc})') from None
-    meta, header_row, columns = {}, None, None
+    meta, meta_rows, header_row, columns = {}, {}, None, None
     rows = []
     for number, line in enumerate(lines, start=1):
         text = line.strip()
@@ -132,6 +132,7 @@ def read_csv_record(path):
             key, sep, value = text[1:].partition(':')
             if sep:
                 meta[key.strip()] = value.strip()
+                meta_rows[key.strip()] = number
             continue
         if columns is None:
             columns = [c.strip() for c in text.split(',')]
@@ -148,7 +149,7 @@ def read_csv_record(path):
     if columns is None:
         raise DataError(f'{path}: row 1, column {TIME!r}: no column header line '
                         f'({",".join(REQUIRED_COLUMNS)},...)')
-    _check_meta(meta, path)
+    _check_meta(meta, path, meta_rows)
     if len(rows) < MIN_SAMPLES:
         raise DataError(f'{path}: row {header_row + len(rows)}, column {TIME!r}: '
                         f'{len(rows)} data rows, need at least {MIN_SAMPLES}')
@@ -178,22 +179,18 @@ def _check_columns(columns, path, row):
             raise DataError(f'{path}: row {row}, column {c!r}: required column missing')
 
 
-def _check_meta(meta, path):
+def _check_meta(meta, path, meta_rows):
     for key in REQUIRED_HEADER:
         if key not in meta:
             raise DataError(f'{path}: row 1, column {key!r}: header line "# {key}: ..." '
                             'missing')
     for key in ('mass_kg', 'sample_rate_hz'):
-        value = parse_number(meta[key], path, _header_row(key), key)
+        value = parse_number(meta[key], path, meta_rows[key], key)
         low = 0.0 if key == 'mass_kg' else 1e-9
         if value < low:
-            raise DataError(f'{path}: row {_header_row(key)}, column {key!r}: {value:g} must '
+            raise DataError(f'{path}: row {meta_rows[key]}, column {key!r}: {value:g} must '
                             f'be >= {low:g}')
         meta[key] = value
-
-
-def _header_row(key):
-    return 1 + REQUIRED_HEADER.index(key) if key in REQUIRED_HEADER else 1
 
 
 def _check_values(data, row_numbers, path):
