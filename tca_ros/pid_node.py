@@ -107,6 +107,9 @@ class TcaPidNode(Node):
                 description='Send no power_cmd until a displacement_setpoint arrives.',
                 read_only=True)).value
         self._pid = PidController(**values)
+        self._joint = self.declare_parameter('joint_name', 'tca_joint', ParameterDescriptor(
+            description='Joint of joint_states to control (joint_name of tca_node).',
+            read_only=True)).value
         self.add_on_set_parameters_callback(self._on_set_parameters)
         self._last_stamp_ns = None
         self._waited_for_match = False
@@ -125,9 +128,13 @@ class TcaPidNode(Node):
                                       throttle_duration_sec=1.0)
 
     def _on_feedback(self, msg):
-        if not msg.position or not math.isfinite(msg.position[0]):
+        # the muscle's joint by name (a merged joint_states has several); unnamed: first
+        index = msg.name.index(self._joint) if self._joint in msg.name else 0
+        if len(msg.position) <= index or not math.isfinite(msg.position[index]) or (
+                msg.name and self._joint not in msg.name):
             # Answer every state (lockstep counts on it), with the safe command.
-            self.get_logger().warning('joint_states: no finite position: power 0',
+            self.get_logger().warning('joint_states: no finite position of joint '
+                                      f'{self._joint!r}: power 0',
                                       throttle_duration_sec=1.0)
             self._power_pub.publish(Float64(data=0.0))
             return
@@ -136,7 +143,7 @@ class TcaPidNode(Node):
         stamp = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
         dt = 0.0 if self._last_stamp_ns is None else (stamp - self._last_stamp_ns) * 1e-9
         self._last_stamp_ns = stamp
-        power = self._pid.update(self._setpoint, msg.position[0], dt)
+        power = self._pid.update(self._setpoint, msg.position[index], dt)
         if not self._waited_for_match:
             self._wait_for_match()
         self._power_pub.publish(Float64(data=power))
