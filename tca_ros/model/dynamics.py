@@ -31,7 +31,7 @@ import math
 import numpy as np
 
 from tca_ros.model import effects as fx
-from tca_ros.model.kinetostatics import contact_elongation, loaded_length
+from tca_ros.model.kinetostatics import contact_elongation, static_elongation
 from tca_ros.model.kinetostatics import make_kinetostatic_model
 from tca_ros.model.resistance import resistance
 from tca_ros.model.thermal import heat_capacity, surface_area, thermal_conductance
@@ -125,8 +125,8 @@ class TcaSimulator:
         load = p.dynamics.load if load is None else float(load)
         temp = self._ambient if temperature is None else float(temperature)
         q = self.equilibrium(load, temp)
-        self.loaded_length = loaded_length(self.kinetostatics, load, self._ambient)
-        self.reference_elongation = self.loaded_length - self.kinetostatics.natural_length
+        self.reference_elongation = self.equilibrium(load, self._ambient)
+        self.loaded_length = self.kinetostatics.natural_length + self.reference_elongation
         self.state = TcaState(time=0.0, temperature=temp, actuation_temperature=temp,
                               elongation=q, previous_elongation=q, load=load)
         self.state.tension = self.kinetostatics.tension(q, temp)
@@ -140,8 +140,7 @@ class TcaSimulator:
 
         Coil contact (Sec. V-D1) bounds it from below.
         """
-        y = self.kinetostatics.equilibrium_elongation(load, temperature)
-        return max(y, self._contact)
+        return static_elongation(self.kinetostatics, load, temperature)
 
     @staticmethod
     def _checked_dt(dt):

@@ -215,13 +215,18 @@ def contact_elongation(params):
         params.fiber, c)
 
 
-def loaded_length(model, load, temperature):
-    """Return the axial length l* + y (m) under load (N) at temperature (degC).
+def static_elongation(model, load, temperature):
+    """Return the static elongation y (m) under load (N) at temperature (degC).
 
     ``model`` is a KinetostaticModel; coil contact (Sec. V-D1) bounds y from below.
     """
     y = model.equilibrium_elongation(load, temperature)
-    return model.natural_length + max(y, contact_elongation(model.params))
+    return max(y, contact_elongation(model.params))
+
+
+def loaded_length(model, load, temperature):
+    """Return the static axial length l* + y (m) under load (N) at temperature (degC)."""
+    return model.natural_length + static_elongation(model, load, temperature)
 
 
 def fixed_coil_centreline(params, elongation, n_points):
