@@ -50,49 +50,45 @@ WARN_PERIOD = 1.0  # s between repeats of a throttled warning
 _NS = 1_000_000_000
 
 
-def _spec(name, default, unit, description, low=-math.inf, high=math.inf, read_only=False):
-    return ParamSpec(name, default, unit, description, low, high), read_only
-
-
 #: Node parameters (beside the TCA SCHEMA); validated with the same check_value.
-NODE_SCHEMA, _READ_ONLY = zip(*(
-    _spec('physics_rate', 1000.0, 'Hz', 'Rate of the physics steps (dynamics (18), eq. (1)).',
-          1.0, 100000.0),
-    _spec('publish_rate', 100.0, 'Hz', 'Rate of the state outputs (and of /clock ticks).',
-          0.1, 10000.0),
-    _spec('shape_rate', 2.0, 'Hz', 'Rate of the shape Marker; 0 turns it off.', 0.0, 100.0),
-    _spec('shape_points', 1000.0, '-', 'Number of points of the shape Marker.', 2.0, 100000.0),
-    _spec('publish_clock', False, '-',
-          'Own the time: step at real_time_factor and publish /clock.', read_only=True),
-    _spec('real_time_factor', 1.0, '-',
-          'Sim seconds per wall second with publish_clock; 0 = as fast as possible.',
-          0.0, 1e6),
-    _spec('lockstep', False, '-',
-          'With publish_clock: after each tick wait for one power or voltage command.'),
-    _spec('lockstep_timeout', 1.0, 's', 'Wall time a lockstep tick waits for a command.',
-          1e-3, 3600.0),
-    _spec('command_timeout', 0.5, 's',
-          'Power 0 after this long without a power or voltage command; 0 = never.',
-          0.0, 1e6),
-    _spec('max_power', 5.0, 'W', 'Power limit of the driver; larger commands are clamped.',
-          0.0, 1e4),
-    _spec('max_load', 10.0, 'N', 'Largest accepted external load; larger ones are clamped.',
-          0.0, 1e4),
-    _spec('max_temperature', 180.0, 'degC', 'Overheat limit: an error log at each crossing.',
-          -50.0, 2000.0),
-    _spec('melt_temperature', 250.0, 'degC',
-          'Above this the muscle breaks (tension 0, resistance inf) until reset.',
-          -50.0, 2000.0),
-    _spec('frame_id', 'tca', '-', 'Frame of the temperature sensor.'),
-    _spec('base_frame', 'tca_base', '-', 'Frame of the clamp, for the shape Marker.'),
-    _spec('joint_name', 'tca_joint', '-', 'Joint name in joint_states.'),
-    _spec('noise.displacement', 0.0, 'm', 'Std of the displacement noise.', 0.0, 1.0),
-    _spec('noise.temperature', 0.0, 'K', 'Std of the temperature noise.', 0.0, 100.0),
-    _spec('noise.resistance', 0.0, 'ohm', 'Std of the resistance noise.', 0.0, 1e6),
-    _spec('noise.seed', 0.0, '-', 'Seed of the measurement noise.', 0.0, 2.0 ** 31 - 1),
-))
+NODE_SCHEMA = (
+    ParamSpec('physics_rate', 1000.0, 'Hz', 'Rate of the physics steps (dynamics (18), eq. (1)).',
+              1.0, 100000.0),
+    ParamSpec('publish_rate', 100.0, 'Hz', 'Rate of the state outputs (and of /clock ticks).',
+              0.1, 10000.0),
+    ParamSpec('shape_rate', 2.0, 'Hz', 'Rate of the shape Marker; 0 turns it off.', 0.0, 100.0),
+    ParamSpec('shape_points', 1000.0, '-', 'Number of points of the shape Marker.', 2.0, 100000.0),
+    ParamSpec('publish_clock', False, '-',
+              'Own the time: step at real_time_factor and publish /clock.'),
+    ParamSpec('real_time_factor', 1.0, '-',
+              'Sim seconds per wall second with publish_clock; 0 = as fast as possible.',
+              0.0, 1e6),
+    ParamSpec('lockstep', False, '-',
+              'With publish_clock: after each tick wait for one power or voltage command.'),
+    ParamSpec('lockstep_timeout', 1.0, 's', 'Wall time a lockstep tick waits for a command.',
+              1e-3, 3600.0),
+    ParamSpec('command_timeout', 0.5, 's',
+              'Power 0 after this long without a power or voltage command; 0 = never.',
+              0.0, 1e6),
+    ParamSpec('max_power', 5.0, 'W', 'Power limit of the driver; larger commands are clamped.',
+              0.0, 1e4),
+    ParamSpec('max_load', 10.0, 'N', 'Largest accepted external load; larger ones are clamped.',
+              0.0, 1e4),
+    ParamSpec('max_temperature', 180.0, 'degC', 'Overheat limit: an error log at each crossing.',
+              -50.0, 2000.0),
+    ParamSpec('melt_temperature', 250.0, 'degC',
+              'Above this the muscle breaks (tension 0, resistance inf) until reset.',
+              -50.0, 2000.0),
+    ParamSpec('frame_id', 'tca', '-', 'Frame of the temperature sensor.'),
+    ParamSpec('base_frame', 'tca_base', '-', 'Frame of the clamp, for the shape Marker.'),
+    ParamSpec('joint_name', 'tca_joint', '-', 'Joint name in joint_states.'),
+    ParamSpec('noise.displacement', 0.0, 'm', 'Std of the displacement noise.', 0.0, 1.0),
+    ParamSpec('noise.temperature', 0.0, 'K', 'Std of the temperature noise.', 0.0, 100.0),
+    ParamSpec('noise.resistance', 0.0, 'ohm', 'Std of the resistance noise.', 0.0, 1e6),
+    ParamSpec('noise.seed', 0.0, '-', 'Seed of the measurement noise.', 0.0, 2.0 ** 31 - 1),
+)
 NODE_SPECS = {s.name: s for s in NODE_SCHEMA}
-READ_ONLY = {s.name for s, ro in zip(NODE_SCHEMA, _READ_ONLY) if ro}
+READ_ONLY = frozenset({'publish_clock'})  # the time source cannot change while running
 #: Node parameters that require a new simulator when changed.
 _REBUILD = {'physics_rate', 'publish_rate'}
 
@@ -164,7 +160,7 @@ class TcaSimNode(Node):
 
     def __init__(self, **kwargs):
         super().__init__('tca', **kwargs)
-        all_specs = [(s, False) for s in SCHEMA] + list(zip(NODE_SCHEMA, _READ_ONLY))
+        all_specs = [(s, s.name in READ_ONLY) for s in SCHEMA + NODE_SCHEMA]
         for spec, _ in all_specs:
             self.declare_parameter(spec.name, spec.default,
                                    _descriptor(spec, with_range=False))
