@@ -251,12 +251,14 @@ class TcaSimulator:
         ambient = self._ambient
         loss = self._conductance * (temp - ambient) * fx.convection_factor(temp, ambient, e)
         loss += fx.radiation_loss(temp, ambient, self._area, e)
-        return (fx.heating_power(power, e) - loss) / self._heat_capacity
+        heating = fx.heating_power(power, e, self.params.thermal.delivered_power_ratio)
+        return (heating - loss) / self._heat_capacity
 
     def _thermal_step(self, temp, power, h):
         """Return T after h (s), power held constant: exact if linear, else RK4."""
         if self._linear_thermal:
-            target = self._ambient + fx.heating_power(power, self.params.effects) \
+            target = self._ambient + fx.heating_power(
+                power, self.params.effects, self.params.thermal.delivered_power_ratio) \
                 / self._conductance
             return target + (temp - target) * math.exp(-h * self._conductance
                                                        / self._heat_capacity)

@@ -57,9 +57,12 @@ CATALOGUE = {
 }
 
 
-def heating_power(power, effects):
-    """Return the power heating the fiber (W): (1 - eta) P, the 'power_loss' effect."""
-    return (1.0 - effects.power_loss_fraction) * power
+def heating_power(power, effects, delivered_ratio=1.0):
+    """Return the power heating the fiber (W): (1 - eta) r P, P the logged power (W).
+
+    eta is the 'power_loss' effect, r the calibrated ``thermal.delivered_power_ratio``.
+    """
+    return (1.0 - effects.power_loss_fraction) * delivered_ratio * power
 
 
 def true_ambient(thermal, effects):

@@ -23,7 +23,8 @@ def unit_untwist(temp, fiber, ambient):
 
         Delta theta_bar^h = theta_bar* (Gamma(T0) / Gamma(T) - 1)
 
-    Zero at T0 = ``ambient`` (degC) and negative when hotter.
+    Zero at T0 = ``ambient`` (degC) and negative when hotter. Multiplied by
+    ``fiber.untwist_gain`` (1 for the paper's law; a calibrated actuation gain).
     """
-    return fiber.inserted_twist * (radius_ratio(ambient, fiber) / radius_ratio(temp, fiber)
-                                   - 1.0)
+    ratio = radius_ratio(ambient, fiber) / radius_ratio(temp, fiber)
+    return fiber.untwist_gain * fiber.inserted_twist * (ratio - 1.0)

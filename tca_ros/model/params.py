@@ -70,6 +70,9 @@ SCHEMA = (
     _p('fiber.specific_heat', 1267.0, 'J/(kg K)', 'Specific heat c_p.', 10.0, 1e4),
     _p('fiber.gamma_coefficients', [3.54e-6, -6.705e-5, 1.0017], '1/degC^2, 1/degC, -',
        'Radius ratio Gamma(T) = c2 T^2 + c1 T + c0 (T in degC), [c2, c1, c0].', length=3),
+    _p('fiber.untwist_gain', 1.0, '-',
+       "Actuation gain: multiplies the untwist of eq. (4) (1 = the paper's law; "
+       "calibrated for a user's muscle).", 0.01, 20.0),
     _p('fiber.heated_radius_in_section', True, '-',
        'Use the heated radius r_t Gamma(T)/Gamma(T0) in A, I and J (as the authors do).'),
     # Coil reference state (Table III)
@@ -91,6 +94,9 @@ SCHEMA = (
     _p('thermal.surface_factor', 2.5, '-', 'Surface roughness factor c_s.', 0.1, 100.0),
     _p('thermal.ambient_temperature_degc', 25.0, 'degC', 'Ambient T_inf = T0.',
        -50.0, 100.0),
+    _p('thermal.delivered_power_ratio', 1.0, '-',
+       'P_in of eq. (1) over the logged or commanded power (1 = as logged; calibrated '
+       'when a record gives nominal power).', 0.05, 5.0),
     # Moduli, eqs. (9)-(11)
     _p('moduli.youngs_modulus', 1.2e9, 'Pa', 'Measured E at T0, no load (scales eq. (9)).',
        1e6, 1e12),
@@ -187,6 +193,7 @@ class FiberParams:
     density: float
     specific_heat: float
     gamma_coefficients: tuple
+    untwist_gain: float
     heated_radius_in_section: bool
 
 
@@ -205,11 +212,12 @@ class CoilParams:
 
 @dataclass(frozen=True)
 class ThermalParams:
-    """Thermal model, eq. (1): h (W/(m^2 K)), c_s (-), ambient (degC)."""
+    """Thermal model, eq. (1): h (W/(m^2 K)), c_s (-), ambient (degC), P_in / P (-)."""
 
     convection_coefficient: float
     surface_factor: float
     ambient_temperature: float
+    delivered_power_ratio: float = 1.0
 
 
 @dataclass(frozen=True)

@@ -295,8 +295,10 @@ def cached_rod_model(params):
 
 def mechanical_params(params):
     """Return ``params`` with every field the rod table does not read set to default."""
-    thermal = replace(params.thermal, convection_coefficient=0.0, surface_factor=1.0)
-    return replace(params, tca_type='', model='rod', source='', thermal=thermal,
+    thermal = replace(params.thermal, convection_coefficient=0.0, surface_factor=1.0,
+                      delivered_power_ratio=1.0)
+    fiber = replace(params.fiber, density=1.0, specific_heat=1.0)
+    return replace(params, tca_type='', model='rod', source='', thermal=thermal, fiber=fiber,
                    dynamics=replace(params.dynamics, mass=0.0, load=0.0, damping=0.0),
                    electrical=replace(params.electrical, resistance=1.0,
                                       temperature_coefficient=0.0, strain_coefficient=0.0),
