@@ -60,6 +60,8 @@ class Record:
         (Hz) and any other ``# key: value`` lines, as strings or floats.
     source : str
         Path the record was read from.
+    meta_rows : dict
+        Line number (1-based) of each header key in the file, for error messages.
     """
 
     time: np.ndarray
@@ -70,6 +72,7 @@ class Record:
     resistance: np.ndarray = None
     meta: dict = field(default_factory=dict)
     source: str = ''
+    meta_rows: dict = field(default_factory=dict)  # header key -> line number (1-based)
 
     @property
     def sample_rate(self):
@@ -100,6 +103,41 @@ def read_record(path):
     if os.path.isdir(path) or path.endswith('.mcap'):
         return read_bag_record(path)
     return read_csv_record(path)
+
+
+def record_config(record):
+    """Return the params file a record's ``tca`` header names: a shipped name or a path.
+
+    A header may name a shipped config (``free_stroke``) or a params file in the
+    record's own directory (``my_tca.yaml``, or ``my_tca`` for ``my_tca.yaml``),
+    never any other path: a record is data, and only the command line may point
+    the reader at arbitrary files. Raises DataError naming the header line.
+    """
+    from tca_ros.model.params import shipped_configs
+    name = str(record.meta.get('tca', '')).strip()
+    folder = os.path.dirname(os.path.abspath(record.source)) if record.source else None
+    plain = name not in ('', '.', '..') and os.path.basename(name) == name and \
+        '/' not in name and '\\' not in name and '\0' not in name
+    shipped = shipped_configs()
+    if plain and name in shipped:
+        return name
+    if plain and folder:
+        for candidate in (name, name + '.yaml'):
+            path = os.path.join(folder, candidate)
+            if os.path.isfile(path):
+                return path
+    if plain and os.path.splitext(name)[0] in shipped:
+        return os.path.splitext(name)[0]
+    row = record.meta_rows.get('tca', 1)
+    raise DataError(f'{record.source}: row {row}, column {"tca"!r}: {clip(name)!r} is '
+                    f'neither a shipped config ({", ".join(shipped)}) nor a params file '
+                    'beside the record; pass --config PATH')
+
+
+def clip(text, limit=40):
+    """Return ``text`` cut to ``limit`` characters (an ellipsis marks the cut)."""
+    text = str(text)
+    return text if len(text) <= limit else text[:limit] + '...'
 
 
 def parse_number(text, path, row, column):
@@ -160,7 +198,7 @@ def read_csv_record(path):
     record = Record(time=data['time'] - data['time'][0], power=data['power'],
                     load=data['load'], displacement=data['displacement'],
                     temperature=data.get('temperature'), resistance=data.get('resistance'),
-                    meta=meta, source=str(path))
+                    meta=meta, source=str(path), meta_rows=meta_rows)
     _check_rate(record, path, header_row)
     return uniform_record(record)
 

@@ -11,7 +11,7 @@ import time as wallclock
 import numpy as np
 
 from tca_ros.diagnosis.candidates import build_candidates
-from tca_ros.diagnosis.data import read_record
+from tca_ros.diagnosis.data import read_record, record_config
 from tca_ros.diagnosis.fitting import FitProblem, Progress, search_effects
 from tca_ros.diagnosis.residuals import residual_stats, STRUCTURE_RATIO
 
@@ -190,7 +190,7 @@ def diagnose(data_path, config=None, report_dir=None, model='cst', progress=True
         record = read_bag_record(data_path, tca=config, mass_kg=base.dynamics.mass)
     else:
         record = read_record(data_path)
-    config = config or str(record.meta['tca'])
+    config = config or record_config(record)
     # the extended params file must name the model its effects were fitted with
     params = load_params(config, model=model,
                          **{'dynamics.mass': record.mass,
