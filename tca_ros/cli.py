@@ -283,6 +283,9 @@ def build_parser():
     sp.add_argument('--seconds', type=float, default=60.0, help='simulated time (s)')
     sp.set_defaults(func=cmd_bench)
 
+    from tca_ros.cli_config import add_parser as add_config_parser
+    add_config_parser(sub)
+
     sp = sub.add_parser('demo', formatter_class=fmt, help='the main job of `make demo`')
     common(sp, model=False)
     sp.add_argument('--out', default='out', help='output directory')
