@@ -1,11 +1,150 @@
-"""`tca_sim config new`: write a params file from what a maker knows of a muscle."""
+"""`tca_sim config new`: write a params file from what a maker knows of a muscle.
+
+The derivations live in tca_ros.model.muscle (docs/describe.md); this module maps
+flags to a MuscleSpec, names refused values by their flag, and writes the file with a
+header listing what was given and what was derived.
+"""
 import argparse
+import datetime
+import math
+import os
+
+#: MuscleSpec field -> command-line flag, for one-line refusals.
+FLAGS = {'thread': '--thread', 'thread_diameter': '--thread-diameter', 'coil': '--coil',
+         'mandrel_diameter': '--mandrel-diameter', 'coil_diameter': '--coil-diameter',
+         'outer_diameter': '--outer-diameter', 'pitch_angle_deg': '--pitch-angle',
+         'coils': '--coils', 'loaded_length': '--loaded-length',
+         'natural_length': '--natural-length', 'resistance': '--resistance',
+         'mass': '--mass', 'ambient_degc': '--ambient', 'model': '--model',
+         'min_pitch_angle_deg': '--min-pitch-angle', 'inserted_twist': '--inserted-twist',
+         'spiral_pitch': '--spiral-pitch', 'cone_angle_deg': '--cone-angle'}
 
 
 def add_parser(subparsers):
-    """Register the ``config`` command (and its ``new`` subcommand) on ``subparsers``."""
+    """Register ``config`` and its ``new`` subcommand on the `tca_sim` subparsers."""
+    from tca_ros.model.muscle import COIL_TYPES
+    from tca_ros.model.params import MODELS
     fmt = argparse.ArgumentDefaultsHelpFormatter
     sp = subparsers.add_parser('config', formatter_class=fmt,
                                help="describe a user's own muscle as a params file")
     sub = sp.add_subparsers(dest='config_command', required=True)
+    new = sub.add_parser(
+        'new', formatter_class=fmt,
+        help='write a params file from thread, coil, length, resistance and mass',
+        description='Write a params file from what a maker knows; everything derivable '
+                    '(coil radius, fiber length, coil count, contact angle, inserted twist, '
+                    'thermal constants) is derived. SI units; angles in deg. '
+                    'See docs/describe.md.')
+    new.add_argument('--out', required=True, help='params file (YAML) to write')
+    new.add_argument('--force', action='store_true', help='overwrite --out if it exists')
+    new.add_argument('--thread', default='nylon66_silver',
+                     help='thread preset of config/threads/threads.yaml (nylon66_silver, '
+                          'nylon6_monofilament)')
+    new.add_argument('--thread-diameter', type=float, default=None,
+                     help='diameter of the twisted thread, 2 r_t (m)')
+    new.add_argument('--coil', default=None,
+                     help=f'how the twisted thread was coiled: {", ".join(COIL_TYPES)}')
+    new.add_argument('--mandrel-diameter', type=float, default=None,
+                     help='mandrel core diameter (m); r* = (mandrel + thread diameter) / 2')
+    new.add_argument('--coil-diameter', type=float, default=None,
+                     help="mean coil diameter 2 r* (m), the thread's centreline")
+    new.add_argument('--outer-diameter', type=float, default=None,
+                     help='outer (caliper) coil diameter (m); r* = (outer - thread) / 2')
+    new.add_argument('--pitch-angle', type=float, default=None,
+                     help='coil pitch angle alpha* (deg)')
+    new.add_argument('--coils', type=float, default=None, help='number of coils N (-)')
+    new.add_argument('--loaded-length', type=float, default=None,
+                     help='length at ambient with --mass hanging (m)')
+    new.add_argument('--natural-length', type=float, default=None,
+                     help='unloaded length l* at ambient (m); conical: spiral height')
+    new.add_argument('--resistance', type=float, default=None,
+                     help='resistance R0 at ambient and loaded length (ohm); default: '
+                          "the preset's ohm/m x l_t (required for a non-conductive thread)")
+    new.add_argument('--mass', type=float, default=0.0, help='hanging mass (kg)')
+    new.add_argument('--ambient', type=float, default=25.0,
+                     help='ambient temperature T0 (degC)')
+    new.add_argument('--model', default='rod',
+                     help=f'{" | ".join(MODELS)}: kinetostatic model written to the '
+                          'file, and used to solve the loaded length')
+    new.add_argument('--min-pitch-angle', type=float, default=None,
+                     help='measured contact pitch angle alpha_min (deg); default: the '
+                          'geometric estimate asin(r_t / (pi r*))')
+    new.add_argument('--inserted-twist', type=float, default=None,
+                     help='inserted twist theta* (rad/m, = turns/m x 2 pi); default: the '
+                          "preset's twist-diameter product / thread diameter")
+    new.add_argument('--spiral-pitch', type=float, default=None,
+                     help='conical: spiral pitch p_c (m); default 0.0106 (the paper)')
+    new.add_argument('--cone-angle', type=float, default=None,
+                     help='conical: full cone angle (deg); default 12 (the paper)')
+    new.set_defaults(func=cmd_config_new)
     return sub
+
+
+def spec_from_args(args):
+    """Return the MuscleSpec of parsed ``config new`` arguments."""
+    from tca_ros.model.muscle import MuscleSpec
+    return MuscleSpec(
+        thread=args.thread, thread_diameter=args.thread_diameter, coil=args.coil,
+        mandrel_diameter=args.mandrel_diameter, coil_diameter=args.coil_diameter,
+        outer_diameter=args.outer_diameter, pitch_angle_deg=args.pitch_angle,
+        coils=args.coils, loaded_length=args.loaded_length,
+        natural_length=args.natural_length, resistance=args.resistance, mass=args.mass,
+        ambient_degc=args.ambient, model=args.model,
+        min_pitch_angle_deg=args.min_pitch_angle, inserted_twist=args.inserted_twist,
+        spiral_pitch=args.spiral_pitch, cone_angle_deg=args.cone_angle)
+
+
+def cmd_config_new(args, out):
+    """Write the params file of a maker's muscle; print where and the derived figures."""
+    from tca_ros.model.muscle import describe_muscle, loaded_length_at_ambient, MuscleError
+    from tca_ros.model.params import dump_params, load_params, ParameterError
+    if os.path.exists(args.out) and not args.force:
+        raise ParameterError(f'--out = {args.out}: exists (use --force to overwrite)')
+    spec = spec_from_args(args)
+    try:
+        result = describe_muscle(spec)
+    except MuscleError as exc:
+        raise ParameterError(exc.renamed(FLAGS.get(exc.field, exc.field))) from None
+    params = result.params
+    derived = dict(result.derived)
+    if spec.coil != 'conical':
+        if spec.loaded_length is None:
+            from tca_ros.model.muscle import Derived
+            derived['loaded_length'] = Derived(
+                loaded_length_at_ambient(params), 'm',
+                f'static length at ambient under the mass ({params.model} model)')
+    header = _header(args, spec, result.preset, derived)
+    dump_params(params, args.out, header=header)
+    load_params(args.out)  # the file must read back through the same schema
+    out.write(f'wrote {args.out}\n')
+    for name, d in derived.items():
+        out.write(f'  {name} = {d.value:.6g} {d.unit}\n')
+    return 0
+
+
+def _header(args, spec, preset, derived):
+    """Return the header comment (lines) of a written params file."""
+    given = [f'{FLAGS[name]} {value}' for name, value in sorted(vars(spec).items())
+             if value is not None and name in FLAGS]
+    lines = [
+        f'{spec.coil} TCA described by `tca_sim config new` '
+        f'({datetime.date.today().isoformat()}). ROS 2 params file, read by',
+        '`ros2 run tca_ros tca_node --ros-args --params-file` and by `tca_sim --config`.',
+        'Units: SI; angles in degrees (*_deg), temperatures in degC (*_degc).',
+        f'Thread preset {preset.name}: {preset.description}',
+        '(properties and their sources: config/threads/threads.yaml; derivations:',
+        'docs/describe.md).',
+        '',
+        'Given:',
+    ]
+    lines += [f'  {g}' for g in given]
+    lines += ['', 'Derived:']
+    for name, d in derived.items():
+        lines.append(f'  {name} = {_fmt(d.value)} {d.unit}  ({d.note})')
+    lines += ['', 'Schema defaults (not derivable from the above): dynamics.damping, '
+              'effects.*,', 'fiber.untwist_gain = 1, thermal.delivered_power_ratio = 1.']
+    return '\n'.join(lines)
+
+
+def _fmt(value):
+    return f'{value:.6g}' if isinstance(value, float) and math.isfinite(value) else str(value)

@@ -1,0 +1,647 @@
+"""A user's own TCA from what a maker knows: derived geometry and constants.
+
+A maker knows the thread, its twisted diameter, how it was coiled (self-coiled, on a
+mandrel, on a conical mandrel), the mandrel or coil diameter, the pitch angle or the
+coil count, a length (natural, or loaded under a hanging mass), the resistance at
+ambient and the hanging mass. Everything else of the params file is derived here:
+the coil radius r*, the fiber length l_t, the coil count, the contact angle, the
+inserted twist, and the thermal and electrical constants. docs/describe.md gives the
+derivations and the decisions behind them.
+
+Conventions
+-----------
+- r* is the mean (centreline) coil radius of [1, Table III]. On a mandrel the thread
+  lies against the core, so r* = mandrel radius + thread radius; a caliper gives the
+  outer diameter, r* = outer radius - thread radius.
+- The natural length is l* = l_t sin(alpha*) and the coil count N = l_t cos(alpha*) /
+  (2 pi r*) [1, eqs. (24), (26)].
+- Coils touch when the gap between neighbouring turns, measured normal to the thread
+  on the developed coil cylinder, equals the thread diameter: 2 pi r* sin(alpha_min) =
+  2 r_t (see contact_pitch_angle).
+
+References
+----------
+[1] J. Sun and J. Zhao, "Physics-based modeling of twisted-and-coiled actuators using
+    Cosserat rod theory," IEEE Trans. Robot., 2022.
+"""
+from dataclasses import dataclass, field
+import math
+import os
+
+import numpy as np
+from scipy.optimize import brentq
+import yaml
+
+from tca_ros.model.kinetostatics import loaded_length, make_kinetostatic_model
+from tca_ros.model.params import (config_dir, flatten, from_flat_dict, GRAVITY, MODELS,
+                                  ParameterError, SCHEMA, SPECS)
+from tca_ros.model.thermal import (fiber_mass, heat_capacity, surface_area,
+                                   thermal_conductance, thermal_time_constant)
+from tca_ros.rod.reference import spiral_arc_length, spiral_coefficients
+
+COIL_TYPES = ('self_coiled', 'mandrel', 'conical')
+#: tca_type written for each way of coiling (a mandrel-coiled helix is the paper's
+#: free-stroke TCA).
+TCA_TYPE_OF_COIL = {'self_coiled': 'self_coiled', 'mandrel': 'free_stroke',
+                    'conical': 'conical'}
+#: r* / r_t of the paper's self-coiled TCA (0.227 mm / 0.21 mm, [1] Tables II-III): the
+#: estimate of a self-coiled coil radius when the maker gives no diameter.
+SELF_COILED_RADIUS_RATIO = 0.227 / 0.21
+#: Conical mandrel of [1, Sec. V-A] (config/conical.yaml): the defaults of a conical coil.
+PAPER_SPIRAL_PITCH = 10.6e-3  # m
+PAPER_CONE_ANGLE_DEG = 12.0  # deg
+#: Relative change of l_t at which the loaded-length fixed point stops (the loaded
+#: length is proportional to l_t for a uniform helix, so it converges in 1-2 passes).
+LENGTH_TOLERANCE = 1e-10
+LENGTH_MAX_ITERATIONS = 30
+#: Largest pitch angle accepted (deg): the schema's upper bound of coil.pitch_angle_deg.
+MAX_PITCH_ANGLE_DEG = SPECS['coil.pitch_angle_deg'].high
+#: Schema names a thread preset may set: the material, not the muscle.
+MATERIAL_PARAMETERS = frozenset((
+    'fiber.bias_angle_deg', 'fiber.volume_fraction', 'fiber.density',
+    'fiber.specific_heat', 'fiber.gamma_coefficients', 'thermal.convection_coefficient',
+    'thermal.surface_factor', 'moduli.youngs_modulus', 'moduli.shear_modulus',
+    'moduli.fiber_modulus', 'moduli.fiber_softening', 'moduli.load_coefficients',
+    'moduli.max_torsion_strain', 'moduli.fiber_modulus_floor',
+    'electrical.temperature_coefficient', 'electrical.strain_coefficient'))
+
+
+class MuscleError(ParameterError):
+    """A described muscle cannot exist or is incompletely described.
+
+    The message is one line, ``field = value unit: reason``; ``field`` names the
+    MuscleSpec field (the CLI maps it to its flag).
+    """
+
+    def __init__(self, field_name, value, reason, unit=''):
+        self.field = field_name
+        self.value = value
+        self.unit = unit
+        self.reason = reason
+        super().__init__(self._text(field_name))
+
+    def _text(self, name):
+        if isinstance(self.value, float):
+            shown = f'{self.value:g}'
+        else:
+            shown = str(self.value)
+        unit = f' {self.unit}' if self.unit and self.value is not None else ''
+        return f'{name} = {shown}{unit}: {self.reason}'
+
+    def renamed(self, name):
+        """Return the one-line message with the field shown as ``name`` (e.g. a flag)."""
+        return self._text(name)
+
+
+# -- thread presets -------------------------------------------------------------------
+@dataclass(frozen=True)
+class ThreadPreset:
+    """Material of a thread preset (config/threads/threads.yaml).
+
+    ``params`` maps schema names (``fiber.density``) to values in schema units;
+    ``resistance_per_length`` is in ohm/m (None if not conductive) and
+    ``twist_diameter_product`` theta* d in rad.
+    """
+
+    name: str
+    description: str
+    conductive: bool
+    resistance_per_length: object
+    twist_diameter_product: float
+    params: dict = field(default_factory=dict)
+
+
+def thread_presets_path():
+    """Return the path of the thread presets file (config/threads/threads.yaml)."""
+    return os.path.join(config_dir(), 'threads', 'threads.yaml')
+
+
+def load_thread_presets(path=None):
+    """Return ``{name: ThreadPreset}`` read from the presets file (YAML).
+
+    Raises ParameterError (one line) if the file is unreadable or an entry sets a
+    name that is not a material parameter of the schema.
+    """
+    path = path or thread_presets_path()
+    try:
+        with open(path, encoding='utf-8') as fh:
+            document = yaml.safe_load(fh)
+    except OSError as exc:
+        raise ParameterError(f'{path}: cannot read thread presets ({exc.strerror})') from None
+    except yaml.YAMLError as exc:
+        raise ParameterError(f'{path}: invalid YAML ({str(exc).splitlines()[0]})') from None
+    if not isinstance(document, dict):
+        raise ParameterError(f'{path}: thread presets must be a mapping of names')
+    presets = {}
+    for name, entry in document.items():
+        values = flatten((entry or {}).get('params') or {})
+        bad = sorted(set(values) - MATERIAL_PARAMETERS)
+        if bad:
+            raise ParameterError(f"{path}: preset '{name}': '{bad[0]}' is not a material "
+                                 'parameter of the schema')
+        presets[name] = ThreadPreset(
+            name=str(name), description=' '.join(str(entry.get('description', '')).split()),
+            conductive=bool(entry.get('conductive', False)),
+            resistance_per_length=entry.get('resistance_per_length'),
+            twist_diameter_product=float(entry['twist_diameter_product']), params=values)
+    return presets
+
+
+# -- geometric relations -------------------------------------------------------------
+def mandrel_coil_radius(mandrel_diameter, thread_diameter):
+    """Return r* = (D_m + d) / 2 (m): the thread's centreline on a mandrel core.
+
+    The twisted thread (diameter d, m) lies against the mandrel core (diameter D_m,
+    m), so its centreline is one thread radius outside the core.
+    """
+    return 0.5 * (mandrel_diameter + thread_diameter)
+
+
+def outer_coil_radius(outer_diameter, thread_diameter):
+    """Return r* = (D_o - d) / 2 (m) from the coil's outer (caliper) diameter D_o (m)."""
+    return 0.5 * (outer_diameter - thread_diameter)
+
+
+def contact_pitch_angle(coil_radius, thread_radius):
+    """Return alpha_min (rad), the pitch angle at which neighbouring coils touch.
+
+        sin(alpha_min) = r_t / (pi r*)
+
+    On the developed coil cylinder the turns are parallel lines at angle alpha,
+    2 pi r* tan(alpha) apart axially, hence 2 pi r* sin(alpha) apart normal to the
+    thread; they touch when that gap equals the thread diameter 2 r_t. Radii in m.
+    """
+    return math.asin(min(thread_radius / (math.pi * coil_radius), 1.0))
+
+
+def fiber_length_of_natural_length(natural_length, pitch_angle):
+    """Return l_t = l* / sin(alpha*) (m), Eq. (26); l* in m, alpha* in rad."""
+    return natural_length / math.sin(pitch_angle)
+
+
+def coil_count(fiber_length, coil_radius, pitch_angle):
+    """Return N = l_t cos(alpha*) / (2 pi r*) (-), Eq. (24); lengths in m, angle in rad."""
+    return fiber_length * math.cos(pitch_angle) / (2.0 * math.pi * coil_radius)
+
+
+def pitch_angle_of_coil_count(natural_length, coil_radius, coils):
+    """Return alpha* = atan(l* / (2 pi r* N)) (rad) of N coils over l* (m), Eqs. (24), (26)."""
+    return math.atan2(natural_length, 2.0 * math.pi * coil_radius * coils)
+
+
+def inserted_twist_of_diameter(twist_diameter_product, thread_diameter):
+    """Return theta* = (theta* d) / d (rad/m) for a twisted-thread diameter d (m)."""
+    return twist_diameter_product / thread_diameter
+
+
+def conical_height_of_coil_count(spiral_pitch, coils):
+    """Return the height z = N p_c (m) of N turns of a conical spiral, Eq. (36)."""
+    return coils * spiral_pitch
+
+
+def conical_fiber_length(spiral_pitch, cone_angle, height):
+    """Return l_t = s(z) (m), the arc length of a conical spiral of height z (m), Eq. (37).
+
+    ``spiral_pitch`` p_c in m, ``cone_angle`` (full angle) in rad.
+    """
+    a, b = spiral_coefficients(spiral_pitch, cone_angle)
+    return float(spiral_arc_length(np.array([height]), a, b)[0])
+
+
+def conical_coil_count(spiral_pitch, height):
+    """Return the turns N = z / p_c (-) of a conical spiral of height z (m), Eq. (36)."""
+    return height / spiral_pitch
+
+
+def equivalent_helix(fiber_length, height, coils):
+    """Return (r (m), alpha (rad)): the uniform helix of equal l_t, height and turns.
+
+    sin(alpha) = z / l_t (Eq. (26)) and r = l_t cos(alpha) / (2 pi N) (Eq. (24)); written
+    for a conical TCA so that l* and N read from its params file are right.
+    """
+    alpha = math.asin(height / fiber_length)
+    return fiber_length * math.cos(alpha) / (2.0 * math.pi * coils), alpha
+
+
+# -- the maker's description --------------------------------------------------------
+@dataclass(frozen=True)
+class MuscleSpec:
+    """What a maker knows of a TCA (SI units; angles in deg, ambient in degC).
+
+    Exactly one of ``pitch_angle_deg`` and ``coils``, and of ``loaded_length`` and
+    ``natural_length``. At most one of ``mandrel_diameter``, ``coil_diameter`` (mean,
+    2 r*) and ``outer_diameter``. None means not given.
+    """
+
+    thread: str
+    thread_diameter: float
+    coil: str
+    mandrel_diameter: float = None
+    coil_diameter: float = None
+    outer_diameter: float = None
+    pitch_angle_deg: float = None
+    coils: float = None
+    loaded_length: float = None
+    natural_length: float = None
+    resistance: float = None
+    mass: float = 0.0
+    ambient_degc: float = 25.0
+    model: str = 'rod'
+    min_pitch_angle_deg: float = None
+    inserted_twist: float = None
+    spiral_pitch: float = None
+    cone_angle_deg: float = None
+
+
+@dataclass(frozen=True)
+class Derived:
+    """One derived quantity: value, unit and how it was obtained."""
+
+    value: float
+    unit: str
+    note: str
+
+
+@dataclass(frozen=True)
+class MuscleDescription:
+    """Result of describe_muscle: validated params, and what was derived."""
+
+    params: object
+    preset: ThreadPreset
+    derived: dict
+
+
+def describe_muscle(spec, presets=None):
+    """Return the MuscleDescription of ``spec`` (a MuscleSpec).
+
+    Raises
+    ------
+    MuscleError
+        One line naming the field, its value and why the muscle cannot exist or is
+        not fully described.
+    """
+    presets = presets if presets is not None else load_thread_presets()
+    preset = _check_spec(spec, presets)
+    r_t = 0.5 * spec.thread_diameter
+    derived = {}
+    flat = {s.name: s.default for s in SCHEMA}
+    flat.update(preset.params)
+    flat.update({'tca_type': TCA_TYPE_OF_COIL[spec.coil], 'model': spec.model,
+                 'fiber.radius': r_t,
+                 'thermal.ambient_temperature_degc': spec.ambient_degc,
+                 'dynamics.mass': spec.mass, 'dynamics.load': spec.mass * GRAVITY})
+    twist = spec.inserted_twist
+    if twist is None:
+        twist = inserted_twist_of_diameter(preset.twist_diameter_product, spec.thread_diameter)
+        derived['inserted_twist'] = Derived(twist, 'rad/m', f'theta* d of {preset.name} / d')
+    flat['fiber.inserted_twist'] = twist
+    if spec.coil == 'conical':
+        _conical_geometry(spec, flat, derived)
+    else:
+        _helix_geometry(spec, flat, derived, r_t)
+    flat['electrical.resistance'] = _resistance(spec, preset, flat, derived)
+    params = _build(flat)
+    _thermal_figures(params, derived)
+    return MuscleDescription(params=params, preset=preset, derived=derived)
+
+
+def _check_spec(spec, presets):
+    """Validate what does not depend on the derivation; return the thread preset."""
+    if spec.thread not in presets:
+        raise MuscleError('thread', spec.thread,
+                          f'unknown preset (known: {", ".join(sorted(presets))})')
+    if spec.coil is None:
+        raise MuscleError('coil', None, f'required: one of {", ".join(COIL_TYPES)}')
+    if spec.coil not in COIL_TYPES:
+        raise MuscleError('coil', spec.coil, f'must be one of {", ".join(COIL_TYPES)}')
+    if spec.model not in MODELS:
+        raise MuscleError('model', spec.model, f'must be one of {", ".join(MODELS)}')
+    _positive(spec, 'thread_diameter', 'm')
+    high = 2.0 * SPECS['fiber.radius'].high
+    if spec.thread_diameter > high:
+        raise MuscleError('thread_diameter', spec.thread_diameter,
+                          f'above {high:g} m, the largest twisted thread the model takes', 'm')
+    for name in ('mandrel_diameter', 'coil_diameter', 'outer_diameter', 'coils',
+                 'loaded_length', 'natural_length', 'resistance', 'inserted_twist',
+                 'spiral_pitch', 'pitch_angle_deg', 'cone_angle_deg'):
+        if getattr(spec, name) is not None:
+            _positive(spec, name, _UNITS[name])
+    if not (_finite(spec.mass) and spec.mass >= 0.0):
+        raise MuscleError('mass', spec.mass, 'must be a finite mass >= 0', 'kg')
+    low, high = (SPECS['thermal.ambient_temperature_degc'].low,
+                 SPECS['thermal.ambient_temperature_degc'].high)
+    if not (_finite(spec.ambient_degc) and low <= spec.ambient_degc <= high):
+        raise MuscleError('ambient_degc', spec.ambient_degc,
+                          f'must be in [{low:g}, {high:g}]', 'degC')
+    _exactly_one(spec, 'loaded_length', 'natural_length')
+    if spec.loaded_length is not None and spec.mass == 0.0:
+        raise MuscleError('mass', spec.mass, 'a loaded length needs the hanging mass '
+                          '(> 0) it was measured under', 'kg')
+    if spec.min_pitch_angle_deg is not None and not (
+            _finite(spec.min_pitch_angle_deg) and 0.0 <= spec.min_pitch_angle_deg < 89.0):
+        raise MuscleError('min_pitch_angle_deg', spec.min_pitch_angle_deg,
+                          'must be in [0, 89)', 'deg')
+    preset = presets[spec.thread]
+    if spec.resistance is None and not preset.conductive:
+        raise MuscleError('resistance', None, f'required: {spec.thread} is not conductive '
+                          "(give the heater's resistance at ambient, ohm)")
+    return preset
+
+
+def _helix_geometry(spec, flat, derived, r_t):
+    """Fill coil and fiber length of a helical (self- or mandrel-coiled) TCA."""
+    for name in ('spiral_pitch', 'cone_angle_deg'):
+        if getattr(spec, name) is not None:
+            raise MuscleError(name, getattr(spec, name),
+                              f'only for a conical coil (this is {spec.coil})', _UNITS[name])
+    radius = _coil_radius(spec, r_t, derived)
+    if radius <= r_t:
+        raise MuscleError(_radius_field(spec), _radius_value(spec),
+                          f'gives a coil radius r* = {radius:g} m, not above the thread '
+                          f'radius {r_t:g} m (the coil would have no bore)', 'm')
+    _exactly_one(spec, 'pitch_angle_deg', 'coils')
+    contact = contact_pitch_angle(radius, r_t)
+    alpha_min = contact if spec.min_pitch_angle_deg is None else math.radians(
+        spec.min_pitch_angle_deg)
+    if spec.min_pitch_angle_deg is None:
+        derived['min_pitch_angle_deg'] = Derived(
+            math.degrees(contact), 'deg', 'coil contact: sin(alpha_min) = r_t / (pi r*)')
+    flat.update({'coil.shape': 'helix', 'coil.radius': radius, 'coil.contact': True,
+                 'coil.min_pitch_angle_deg': math.degrees(alpha_min)})
+    if spec.pitch_angle_deg is not None:
+        alpha = math.radians(spec.pitch_angle_deg)
+        _check_pitch(spec, 'pitch_angle_deg', spec.pitch_angle_deg, alpha, alpha_min)
+        flat['coil.pitch_angle_deg'] = spec.pitch_angle_deg
+        if spec.natural_length is not None:
+            length = fiber_length_of_natural_length(spec.natural_length, alpha)
+            _set_length(flat, length, 'natural_length', spec.natural_length)
+            derived['fiber_length'] = Derived(length, 'm', 'l_t = l* / sin(alpha*), eq. (26)')
+        else:
+            length = _fiber_length_of_loaded_length(flat, spec)
+            derived['fiber_length'] = Derived(
+                length, 'm', f'loaded length at ambient under the mass ({spec.model} model)')
+    elif spec.natural_length is not None:
+        alpha = pitch_angle_of_coil_count(spec.natural_length, radius, spec.coils)
+        _check_pitch(spec, 'coils', spec.coils, alpha, alpha_min)
+        flat['coil.pitch_angle_deg'] = math.degrees(alpha)
+        length = fiber_length_of_natural_length(spec.natural_length, alpha)
+        _set_length(flat, length, 'natural_length', spec.natural_length)
+        derived['pitch_angle_deg'] = Derived(math.degrees(alpha), 'deg',
+                                             'tan(alpha*) = l* / (2 pi r* N)')
+        derived['fiber_length'] = Derived(length, 'm', 'l_t = l* / sin(alpha*), eq. (26)')
+    else:
+        alpha, length = _pitch_of_coils_loaded(flat, spec, radius, alpha_min)
+        derived['pitch_angle_deg'] = Derived(
+            math.degrees(alpha), 'deg', f'N coils at the loaded length ({spec.model} model)')
+        derived['fiber_length'] = Derived(
+            length, 'm', f'loaded length at ambient under the mass ({spec.model} model)')
+    length = flat['fiber.length']
+    alpha = math.radians(flat['coil.pitch_angle_deg'])
+    if spec.coils is None:
+        derived['coils'] = Derived(coil_count(length, radius, alpha), '-',
+                                   'N = l_t cos(alpha*) / (2 pi r*), eq. (24)')
+    if spec.natural_length is None:
+        derived['natural_length'] = Derived(length * math.sin(alpha), 'm',
+                                            'l* = l_t sin(alpha*), eq. (26)')
+
+
+def _coil_radius(spec, r_t, derived):
+    """Return r* (m) from the one diameter given, or the self-coiled estimate."""
+    given = [n for n in ('mandrel_diameter', 'coil_diameter', 'outer_diameter')
+             if getattr(spec, n) is not None]
+    if len(given) > 1:
+        raise MuscleError(given[1], getattr(spec, given[1]),
+                          f'give one of mandrel, coil or outer diameter (also got {given[0]})',
+                          'm')
+    if spec.coil == 'self_coiled' and spec.mandrel_diameter is not None:
+        raise MuscleError('mandrel_diameter', spec.mandrel_diameter,
+                          'a self-coiled muscle has no mandrel (give the coil or outer '
+                          'diameter, or none to estimate it)', 'm')
+    if spec.mandrel_diameter is not None:
+        radius = mandrel_coil_radius(spec.mandrel_diameter, spec.thread_diameter)
+        note = 'r* = (mandrel diameter + thread diameter) / 2'
+    elif spec.coil_diameter is not None:
+        return 0.5 * spec.coil_diameter
+    elif spec.outer_diameter is not None:
+        radius = outer_coil_radius(spec.outer_diameter, spec.thread_diameter)
+        note = 'r* = (outer diameter - thread diameter) / 2'
+    elif spec.coil == 'self_coiled':
+        radius = SELF_COILED_RADIUS_RATIO * r_t
+        note = ("ESTIMATED: r*/r_t of the paper's self-coiled TCA (0.227/0.21); "
+                'measure the coil to replace it')
+    else:
+        raise MuscleError('mandrel_diameter', None,
+                          'a mandrel-coiled muscle needs the mandrel, coil or outer diameter')
+    derived['coil_radius'] = Derived(radius, 'm', note)
+    return radius
+
+
+def _radius_field(spec):
+    for name in ('mandrel_diameter', 'coil_diameter', 'outer_diameter'):
+        if getattr(spec, name) is not None:
+            return name
+    return 'thread_diameter'
+
+
+def _radius_value(spec):
+    return getattr(spec, _radius_field(spec))
+
+
+def _check_pitch(spec, name, value, alpha, alpha_min):
+    """Refuse a pitch angle at or below contact, or beyond the schema's range."""
+    unit = _UNITS[name]
+    if alpha <= alpha_min:
+        source = ('the measured contact angle' if spec.min_pitch_angle_deg is not None
+                  else 'the contact angle asin(r_t / (pi r*))')
+        what = ('' if name == 'pitch_angle_deg'
+                else f'gives a pitch angle {math.degrees(alpha):g} deg, ')
+        raise MuscleError(name, value, f'{what}at or below {source} '
+                          f'{math.degrees(alpha_min):.3g} deg (neighbouring coils would '
+                          'overlap)', unit)
+    if math.degrees(alpha) > MAX_PITCH_ANGLE_DEG:
+        raise MuscleError(name, value, f'gives a pitch angle above {MAX_PITCH_ANGLE_DEG:g} '
+                          'deg (a straight thread, not a coil)', unit)
+
+
+def _set_length(flat, length, name, value):
+    """Set fiber.length, refusing a value outside the schema's range."""
+    spec = SPECS['fiber.length']
+    if not spec.low <= length <= spec.high:
+        raise MuscleError(name, value, f'gives a fiber length l_t = {length:g} m outside '
+                          f'[{spec.low:g}, {spec.high:g}] m', 'm')
+    flat['fiber.length'] = length
+
+
+def _loaded_length_of(flat, spec, length):
+    """Return the static length (m) at ambient under the mass for fiber length (m)."""
+    trial = dict(flat)
+    trial['fiber.length'] = length
+    params = from_flat_dict(trial)
+    model = make_kinetostatic_model(params, spec.model)
+    return loaded_length(model, params.dynamics.load, params.thermal.ambient_temperature)
+
+
+def _fiber_length_of_loaded_length(flat, spec):
+    """Set and return l_t (m) so that the loaded length at ambient is spec.loaded_length.
+
+    Fixed point l_t <- l_t L / L(l_t), started from l_t = L / sin(alpha*). For a
+    uniform helix with the end free to rotate the static strains do not depend on
+    l_t, so L(l_t) is proportional to l_t and one pass is exact to the solver's
+    tolerance; the iteration guards the contact stop and the rod model's table.
+    """
+    target = spec.loaded_length
+    alpha = math.radians(flat['coil.pitch_angle_deg'])
+    length = fiber_length_of_natural_length(target, alpha)
+    for _ in range(LENGTH_MAX_ITERATIONS):
+        _set_length(flat, length, 'loaded_length', target)
+        current = _loaded_length_of(flat, spec, length)
+        new = length * target / current
+        if abs(new - length) <= LENGTH_TOLERANCE * length:
+            _set_length(flat, new, 'loaded_length', target)
+            return new
+        length = new
+    raise MuscleError('loaded_length', target, 'no fiber length found giving this loaded '
+                      f'length (fixed point did not converge in {LENGTH_MAX_ITERATIONS} '
+                      'passes)', 'm')
+
+
+def _pitch_of_coils_loaded(flat, spec, radius, alpha_min):
+    """Return (alpha* (rad), l_t (m)) giving spec.coils coils at the loaded length.
+
+    Brent's method on alpha* over (alpha_min, MAX_PITCH_ANGLE_DEG]: the
+    coil count l_t(alpha) cos(alpha) / (2 pi r*) falls as alpha* grows.
+    """
+    low = max(alpha_min, math.radians(SPECS['coil.pitch_angle_deg'].low)) * (1.0 + 1e-9)
+    high = math.radians(MAX_PITCH_ANGLE_DEG)
+
+    def excess(alpha):
+        flat['coil.pitch_angle_deg'] = math.degrees(alpha)
+        length = _fiber_length_of_loaded_length(flat, spec)
+        return coil_count(length, radius, alpha) - spec.coils
+
+    try:
+        f_low, f_high = excess(low), excess(high)
+    except MuscleError as exc:
+        raise MuscleError('coils', spec.coils, exc.reason, '-') from None
+    if f_low < 0.0:
+        raise MuscleError('coils', spec.coils, f'more than fit at the loaded length: even at '
+                          f'the contact angle {math.degrees(low):.3g} deg only '
+                          f'{f_low + spec.coils:.4g} coils do', '-')
+    if f_high > 0.0:
+        raise MuscleError('coils', spec.coils, 'too many for this loaded length: the pitch '
+                          f'angle would exceed {MAX_PITCH_ANGLE_DEG:g} deg', '-')
+    alpha = brentq(excess, low, high, xtol=1e-12, rtol=1e-12)
+    flat['coil.pitch_angle_deg'] = math.degrees(alpha)
+    return alpha, _fiber_length_of_loaded_length(flat, spec)
+
+
+def _conical_geometry(spec, flat, derived):
+    """Fill coil and fiber length of a conical TCA (spiral of eq. (36))."""
+    for name in ('mandrel_diameter', 'coil_diameter', 'outer_diameter', 'pitch_angle_deg',
+                 'loaded_length'):
+        if getattr(spec, name) is not None:
+            raise MuscleError(name, getattr(spec, name), 'not for a conical coil (give '
+                              '--spiral-pitch, --cone-angle and --coils or '
+                              '--natural-length)', _UNITS[name])
+    if spec.coils is None and spec.natural_length is None:
+        raise MuscleError('coils', None, 'a conical coil needs the coil count or the '
+                          'natural height')
+    pitch = PAPER_SPIRAL_PITCH if spec.spiral_pitch is None else spec.spiral_pitch
+    cone_deg = PAPER_CONE_ANGLE_DEG if spec.cone_angle_deg is None else spec.cone_angle_deg
+    if not cone_deg < 170.0:
+        raise MuscleError('cone_angle_deg', cone_deg, 'must be below 170 deg', 'deg')
+    if spec.coils is not None:
+        height = conical_height_of_coil_count(pitch, spec.coils)
+        derived['natural_length'] = Derived(height, 'm', 'z = N p_c, eq. (36)')
+        coils = spec.coils
+    else:
+        height = spec.natural_length
+        coils = conical_coil_count(pitch, height)
+        derived['coils'] = Derived(coils, '-', 'N = z / p_c, eq. (36)')
+    length = conical_fiber_length(pitch, math.radians(cone_deg), height)
+    _set_length(flat, length, 'coils' if spec.coils is not None else 'natural_length',
+                spec.coils if spec.coils is not None else spec.natural_length)
+    derived['fiber_length'] = Derived(length, 'm', 'l_t = s(z), arc length of eq. (37)')
+    radius, alpha = equivalent_helix(length, height, coils)
+    if math.degrees(alpha) < SPECS['coil.pitch_angle_deg'].low:
+        raise MuscleError('spiral_pitch', pitch, 'gives an almost flat spiral (mean pitch '
+                          f'angle {math.degrees(alpha):.3g} deg)', 'm')
+    derived['coil_radius'] = Derived(radius, 'm', 'equivalent helix: same l_t, height, N')
+    derived['pitch_angle_deg'] = Derived(math.degrees(alpha), 'deg',
+                                         'equivalent helix: sin(alpha) = z / l_t')
+    contact = contact_pitch_angle(radius, flat['fiber.radius'])
+    min_deg = (math.degrees(contact) if spec.min_pitch_angle_deg is None
+               else spec.min_pitch_angle_deg)
+    flat.update({'coil.shape': 'conical', 'coil.radius': radius,
+                 'coil.pitch_angle_deg': math.degrees(alpha), 'coil.spiral_pitch': pitch,
+                 'coil.cone_angle_deg': cone_deg, 'coil.contact': False,
+                 'coil.min_pitch_angle_deg': min_deg})
+
+
+def _resistance(spec, preset, flat, derived):
+    """Return R0 (ohm): the measured one, or the preset's ohm/m times l_t."""
+    if spec.resistance is not None:
+        return spec.resistance
+    per_length = preset.resistance_per_length
+    value = float(per_length) * flat['fiber.length']
+    derived['resistance'] = Derived(value, 'ohm', f'{per_length:g} ohm/m of {preset.name} '
+                                    'x l_t (measure it: --resistance)')
+    return value
+
+
+def _build(flat):
+    """Return validated TcaParams, turning a schema refusal into a MuscleError."""
+    try:
+        return from_flat_dict(flat)
+    except MuscleError:
+        raise
+    except ParameterError as exc:
+        raise MuscleError('derived', 'params', str(exc)) from None
+
+
+def _thermal_figures(params, derived):
+    """Add the constants of the thermal model, Eq. (1), to ``derived``."""
+    fiber, thermal = params.fiber, params.thermal
+    derived['fiber_mass'] = Derived(fiber_mass(fiber), 'kg', 'm_t = rho pi r_t^2 l_t')
+    derived['heat_capacity'] = Derived(heat_capacity(fiber), 'J/K', 'm_t c_p, eq. (1)')
+    derived['surface_area'] = Derived(surface_area(fiber), 'm^2',
+                                      'A_0 = 2 pi r_t l_t, eq. (1) (c_s A_0 convects)')
+    derived['thermal_time_constant'] = Derived(
+        thermal_time_constant(fiber, thermal), 's', 'm_t c_p / (h c_s A_0), eq. (1)')
+    derived['steady_rise'] = Derived(1.0 / thermal_conductance(fiber, thermal), 'K/W',
+                                     '1 / (h c_s A_0), eq. (1)')
+
+
+def loaded_length_at_ambient(params, model=None):
+    """Return the static length (m) at ambient under the params' load (N)."""
+    km = make_kinetostatic_model(params, model)
+    return loaded_length(km, params.dynamics.load, params.thermal.ambient_temperature)
+
+
+def _positive(spec, name, unit):
+    value = getattr(spec, name)
+    if value is None:
+        raise MuscleError(name, None, 'required')
+    if not (_finite(value) and value > 0.0):
+        raise MuscleError(name, value, 'must be a finite value > 0', unit)
+
+
+def _finite(value):
+    return isinstance(value, (int, float)) and not isinstance(value, bool) \
+        and math.isfinite(value)
+
+
+def _exactly_one(spec, first, second):
+    a, b = getattr(spec, first), getattr(spec, second)
+    if a is None and b is None:
+        raise MuscleError(first, None, f'give exactly one of {first} and {second}')
+    if a is not None and b is not None:
+        raise MuscleError(second, b, f'give exactly one of {first} and {second} '
+                          f'(also got {first} = {a:g})', _UNITS[second])
+
+
+_UNITS = {'thread_diameter': 'm', 'mandrel_diameter': 'm', 'coil_diameter': 'm',
+          'outer_diameter': 'm', 'pitch_angle_deg': 'deg', 'coils': '-',
+          'loaded_length': 'm', 'natural_length': 'm', 'resistance': 'ohm',
+          'mass': 'kg', 'ambient_degc': 'degC', 'min_pitch_angle_deg': 'deg',
+          'inserted_twist': 'rad/m', 'spiral_pitch': 'm', 'cone_angle_deg': 'deg'}
