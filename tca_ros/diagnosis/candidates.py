@@ -63,6 +63,9 @@ _SPACES = {
                                (-6.0, -2.0, 2.0, 6.0)),
     'effects.power_loss_fraction': (ParameterSpace('effects.power_loss_fraction', 0.0, 0.6),
                                     (0.05, 0.15, 0.3)),
+    'effects.dead_time': (ParameterSpace('effects.dead_time', 0.0, 5.0), (0.2, 0.6, 1.5)),
+    'effects.second_thermal_lag': (ParameterSpace('effects.second_thermal_lag', 0.0, 30.0),
+                                   (0.5, 2.0, 6.0)),
 }
 CONTACT_START_FRACTIONS = (0.9, 0.75, 0.6, 0.45)  # stop at these fractions of the peak
 CONTACT_MARGIN_DEG = 0.05  # alpha_min stays this far below alpha* (validation rule)

@@ -25,6 +25,7 @@ State coordinate: q, the elongation (m) of the free end from the natural length
 l*, positive when stretched; the displacement published is the contraction
 x = q_ref - q from the loaded equilibrium at ambient (positive when shorter).
 """
+import collections
 from dataclasses import dataclass
 import math
 
@@ -39,6 +40,9 @@ from tca_ros.model.thermal import heat_capacity, surface_area, thermal_conductan
 STABILITY_SAFETY = 0.9  # fraction of the central-difference limit 2/omega used per substep
 MAX_SUBSTEPS = 1000  # beyond this, ask for the quasi-static mode instead
 STABILITY_RECHECK = 100  # steps between re-evaluations of the stability limit (k drifts slowly)
+RK4_REAL_LIMIT = 2.785  # h lambda on the negative real axis where classical RK4 turns unstable
+THERMAL_CHECK_RISE = 300.0  # K above ambient at which the nonlinear thermal limit is also taken
+EQUILIBRIUM_TOLERANCE = 0.05  # relative tension error beyond which a start state is refused
 
 
 class StabilityError(ValueError):
@@ -52,6 +56,7 @@ class TcaState:
     time: float = 0.0  # s
     temperature: float = 25.0  # degC, fiber temperature T
     actuation_temperature: float = 25.0  # degC, T seen by the untwist (hysteresis)
+    fiber_temperature: float = 25.0  # degC, T behind the second thermal lag (effect)
     elongation: float = 0.0  # m, q of the free end from l* (includes creep)
     previous_elongation: float = 0.0  # m, q one step earlier
     velocity: float = 0.0  # m/s, dq/dt (stretching positive)
@@ -127,13 +132,34 @@ class TcaSimulator:
         q = self.equilibrium(load, temp)
         self.reference_elongation = self.equilibrium(load, self._ambient)
         self.loaded_length = self.kinetostatics.natural_length + self.reference_elongation
+        self._drive = collections.deque()  # (start time (s), power (W)) for the dead time
+        self._delayed_power = 0.0  # W, the drive's output during the dead time
         self.state = TcaState(time=0.0, temperature=temp, actuation_temperature=temp,
+                              fiber_temperature=temp,
                               elongation=q, previous_elongation=q, load=load)
         self.state.tension = self.kinetostatics.tension(q, temp)
+        self._check_equilibrium(load, temp, q, self.state.tension)
         self._update_outputs(self.state, 0.0)
         self.state.measured_displacement = self.state.displacement
         self._substeps = self.check_step()
         return self.state
+
+    def _check_equilibrium(self, load, temp, elongation, tension):
+        """Raise ValueError unless (elongation, tension) is a finite static state.
+
+        A load the coil cannot hold (it straightens) or a model that is not finite
+        there would otherwise surface as a division by zero in the first steps.
+        """
+        values = (elongation, tension, self.reference_elongation)
+        if not all(math.isfinite(v) for v in values):
+            raise ValueError(
+                f'dynamics.load = {load:g} N: no finite static equilibrium at {temp:g} degC '
+                f'(elongation {elongation:g} m, tension {tension:g} N)')
+        in_contact = elongation <= self._contact
+        if not in_contact and abs(tension - load) > EQUILIBRIUM_TOLERANCE * max(load, 1e-3):
+            raise ValueError(
+                f'dynamics.load = {load:g} N: beyond the range of the coil at {temp:g} degC '
+                f'(it straightens; the model holds {tension:.3g} N there)')
 
     def equilibrium(self, load, temperature):
         """Return the static elongation (m) under load (N) at temperature (degC).
@@ -169,20 +195,59 @@ class TcaSimulator:
                                          s.actuation_temperature)
         return central_difference_limit(k, self.params.dynamics.mass)
 
+    def thermal_limit(self):
+        """Return the largest stable substep (s) of the RK4 thermal update (inf if exact).
+
+        The linear eq. (1) is updated exactly. With radiation or nonlinear convection
+        RK4 needs h lambda < 2.785, lambda = d(loss)/dT / (m c_p), taken at the state
+        and THERMAL_CHECK_RISE above ambient (the temperature rises between re-checks).
+        """
+        if self._linear_thermal:
+            return math.inf
+        e = self.params.effects
+        rate = 0.0
+        for temp in (self.state.temperature, self._ambient + THERMAL_CHECK_RISE):
+            convection = self._conductance * (1.0 + e.convection_exponent) \
+                * fx.convection_factor(temp, self._ambient, e)
+            radiation = 4.0 * e.emissivity * fx.STEFAN_BOLTZMANN * self._area * (
+                abs(temp) + fx.KELVIN) ** 3
+            rate = max(rate, (convection + radiation) / self._heat_capacity)
+        return RK4_REAL_LIMIT / rate if rate > 0.0 else math.inf
+
+    def _creep_limit(self):
+        """Return the substep (s) below which explicit Euler creep decays monotonically."""
+        e = self.params.effects
+        return e.creep_time_constant if e.creep_compliance > 0.0 else math.inf
+
     def substeps(self):
-        """Return the number of equal substeps one step of dt needs to stay stable."""
-        limit = STABILITY_SAFETY * self.stability_limit()
-        return max(1, math.ceil(self.dt / limit)) if math.isfinite(limit) else 1
+        """Return the number of equal substeps one step of dt needs to stay stable.
+
+        MAX_SUBSTEPS + 1 when a limit is zero or not a number, or needs more.
+        """
+        limit = STABILITY_SAFETY * min(self.stability_limit(), self.thermal_limit(),
+                                       self._creep_limit())
+        if limit == math.inf:
+            return 1
+        if not limit > 0.0 or self.dt / limit > MAX_SUBSTEPS:  # also a NaN limit
+            return MAX_SUBSTEPS + 1
+        return max(1, math.ceil(self.dt / limit))
 
     def check_step(self):
         """Raise StabilityError when dt needs more than MAX_SUBSTEPS substeps."""
         n = self.substeps()
         if n > MAX_SUBSTEPS:
+            mechanical = self.stability_limit()
+            others = min(self.thermal_limit(), self._creep_limit())
+            if not mechanical > others:
+                raise StabilityError(
+                    f'dynamics.mass = {self.params.dynamics.mass:g} kg: explicit limit '
+                    f'2/omega = {mechanical:.3g} s needs more than {MAX_SUBSTEPS} substeps '
+                    f'of dt = {self.dt:g} s; allowed at most {MAX_SUBSTEPS} '
+                    '(use mass 0 for the quasi-static mode or a smaller dt)')
             raise StabilityError(
-                f'dynamics.mass = {self.params.dynamics.mass:g} kg: explicit limit '
-                f'2/omega = {self.stability_limit():.3g} s needs {n} substeps of '
-                f'dt = {self.dt:g} s; allowed at most {MAX_SUBSTEPS} '
-                '(use mass 0 for the quasi-static mode or a smaller dt)')
+                f'thermal or creep limit {others:.3g} s needs more than {MAX_SUBSTEPS} '
+                f'substeps of dt = {self.dt:g} s (check thermal.*, effects.emissivity, '
+                'effects.convection_exponent, effects.creep_time_constant, or a smaller dt)')
         return n
 
     # -- stepping -----------------------------------------------------------------
@@ -207,9 +272,11 @@ class TcaSimulator:
         q, y_c = s.elongation, s.creep
         # eq. (1) first; the explicit step below still uses f_rod(q_i, T_i) (s.tension),
         # the implicit quasi-static steps use T_{i+1}
-        s.temperature = self._thermal_step(s.temperature, power, h)
+        s.temperature = self._thermal_step(s.temperature, self._delayed(power, h), h)
+        s.fiber_temperature = fx.second_lag_step(s.fiber_temperature, s.temperature, h,
+                                                 p.effects)
         s.actuation_temperature = fx.play_operator(
-            s.temperature, s.actuation_temperature, p.effects.hysteresis_width)
+            s.fiber_temperature, s.actuation_temperature, p.effects.hysteresis_width)
         if mass > 0.0:
             q_next = central_difference_step(q, s.previous_elongation, load - s.tension,
                                              mass, damping, h)
@@ -232,6 +299,20 @@ class TcaSimulator:
         s.tension = model.tension(s.elongation - s.creep, s.actuation_temperature, s.tension)
         self._update_outputs(s, h)
 
+    def _delayed(self, power, h):
+        """Return the power (W) commanded effects.dead_time (s) ago (the drive's delay).
+
+        Zero before the delayed signal starts; exact for steps that divide the delay.
+        """
+        delay = self.params.effects.dead_time
+        if delay <= 0.0:
+            return power
+        now = self.state.time
+        self._drive.append((now, power))
+        while self._drive and self._drive[0][0] <= now - delay + 1e-9 * h:
+            self._delayed_power = self._drive.popleft()[1]
+        return self._delayed_power
+
     def _backward_euler(self, q, y_c, load, temp, damping, h):
         """Return q_{i+1} of b (q_{i+1} - q_i)/h + f_rod(q_{i+1}) = F (Newton)."""
         model = self.kinetostatics
@@ -239,6 +320,8 @@ class TcaSimulator:
         for _ in range(20):
             residual = damping * (y + y_c - q) / h + model.tension(y, temp) - load
             slope = damping / h + model.stiffness(max(y, self._contact), temp)
+            if not slope > 0.0:  # f_rod softening faster than b/h: keep the last iterate
+                break
             step = residual / slope
             y -= step
             if abs(step) < 1e-12:

@@ -19,6 +19,9 @@ coil_contact         coil.min_pitch_angle_deg      stroke stops at l_t sin(alpha
 sensor_lag           sensor_lag (s)                first-order lag of the sensor
 ambient_offset       ambient_offset (K)            true T_inf = nominal + offset
 power_loss           power_loss_fraction (-)       heating power (1 - eta) P
+dead_time            dead_time (s)                 P_in(t) = P(t - d): the drive's delay
+second_thermal_lag   second_thermal_lag (s)        tau_2 dT_f/dt = T - T_f; T_f actuates
+                                                   (core vs surface, heater vs thread)
 ==================== ============================= ===================================
 
 References
@@ -54,6 +57,8 @@ CATALOGUE = {
     'sensor_lag': ('effects.sensor_lag',),
     'ambient_offset': ('effects.ambient_offset',),
     'power_loss': ('effects.power_loss_fraction',),
+    'dead_time': ('effects.dead_time',),
+    'second_thermal_lag': ('effects.second_thermal_lag',),
 }
 
 
@@ -63,6 +68,18 @@ def heating_power(power, effects, delivered_ratio=1.0):
     eta is the 'power_loss' effect, r the calibrated ``thermal.delivered_power_ratio``.
     """
     return (1.0 - effects.power_loss_fraction) * delivered_ratio * power
+
+
+def second_lag_step(fiber_temp, temp, dt, effects):
+    """Return the actuating fiber temperature T_f (degC) after dt (s), T (degC) held.
+
+    'second_thermal_lag': tau_2 dT_f/dt = T - T_f, T the temperature of eq. (1) (the
+    heated, logged one); T_f = T when the lag is off.
+    """
+    tau = effects.second_thermal_lag
+    if tau <= 0.0:
+        return temp
+    return temp + (fiber_temp - temp) * math.exp(-dt / tau)
 
 
 def true_ambient(thermal, effects):

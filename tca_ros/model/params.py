@@ -141,6 +141,11 @@ SCHEMA = (
        -50.0, 50.0),
     _p('effects.power_loss_fraction', 0.0, '-', 'Power loss: fraction not heating the fiber.',
        0.0, 0.99),
+    _p('effects.dead_time', 0.0, 's', 'Dead time: delay of the drive before power heats.',
+       0.0, 30.0),
+    _p('effects.second_thermal_lag', 0.0, 's',
+       'Second thermal lag: time constant between the heated and the actuating fiber.',
+       0.0, 300.0),
 )
 
 SPECS = {s.name: s for s in SCHEMA}
@@ -266,6 +271,8 @@ class EffectParams:
     sensor_lag: float = 0.0
     ambient_offset: float = 0.0
     power_loss_fraction: float = 0.0
+    dead_time: float = 0.0
+    second_thermal_lag: float = 0.0
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,322 @@
+"""Quasi-static reduction of the TCA dynamics for fast identification.
+
+When the mechanical time scales (sqrt(m / k) ~ 10-50 ms, b_t / k ~ 10-100 ms) are
+far below the thermal one (eq. (1), seconds), eq. (18) reduces to
+
+    T(t)  from eq. (1), exact under zero-order-hold power          (1)
+    y_eq  with f_rod(y_eq, T) = F,  y >= y_contact                 (18), m = 0, b = 0
+    tau_m dy/dt = y_eq - y,  tau_m = b_t / k(y_eq, T)              first-order lag
+
+The static map y_eq(T) is solved by the configured kinetostatic model (rod: the
+exact uniform helix of the rod model, Newton for cst and love) on a temperature
+grid and interpolated; the thermal response is a linear recursive filter. One
+simulation of a record then costs a few dozen equilibrium solves instead of one
+f_rod evaluation per physics step, which is what makes the joint calibration of
+many records fast. ``simulate_quasistatic`` returns the same SimulationResult as
+``dynamics.simulate``; the test suite measures the difference between the two.
+
+Supported extensions: the linear thermal ones (power loss, ambient offset), the
+sensor lag, dead time of the drive and a second thermal lag. Effects that make
+the response history-dependent (creep, hysteresis) or eq. (1) nonlinear
+(radiation, nonlinear convection) raise ``QuasiStaticUnsupported``: use
+``dynamics.simulate`` for those.
+"""
+import math
+
+import numpy as np
+from scipy.signal import lfilter
+
+from tca_ros.model import effects as fx
+from tca_ros.model.dynamics import SimulationResult
+from tca_ros.model.kinetostatics import contact_elongation, make_kinetostatic_model
+from tca_ros.model.resistance import resistance
+from tca_ros.model.rod_model import helix_elongation
+from tca_ros.model.thermal import heat_capacity, thermal_conductance
+
+MAP_TEMP_STEP = 2.0  # K between the static map's grid points (linear interpolation)
+MAP_MARGIN = 4.0  # K beyond the lowest and highest temperature of a record
+STIFFNESS_LOAD_STEP = 1e-4  # relative load step for k = dF / dy of the static map
+MAX_DISTINCT_LOADS = 16  # static maps solved per simulation
+
+
+class QuasiStaticUnsupported(ValueError):
+    """The parameters switch on an effect the quasi-static reduction cannot represent."""
+
+
+def check_supported(params):
+    """Raise QuasiStaticUnsupported when ``params`` need the full dynamics."""
+    e = params.effects
+    active = [name for name, on in (
+        ('creep', e.creep_compliance > 0.0), ('hysteresis', e.hysteresis_width > 0.0),
+        ('radiation', e.emissivity > 0.0),
+        ('nonlinear_convection', e.convection_exponent > 0.0)) if on]
+    if active:
+        raise QuasiStaticUnsupported(
+            f'effect {active[0]!r} is on: the quasi-static reduction supports only linear '
+            'thermal effects and the sensor lag; use dynamics.simulate')
+
+
+def thermal_response(time, power, params):
+    """Return T (degC) at ``time`` (s) under zero-order-hold ``power`` (W), eq. (1).
+
+    Exact for the linear eq. (1): over each interval the temperature relaxes to
+    T_inf + P_in / (h c_s A_0) with the time constant m_t c_p / (h c_s A_0). P_in
+    is the logged power times ``thermal.delivered_power_ratio`` and (1 - power
+    loss), delayed by ``effects.dead_time`` when set; the start is at ambient.
+    """
+    time = np.asarray(time, dtype=float)
+    heating = fx.heating_power(np.asarray(power, dtype=float), params.effects,
+                               params.thermal.delivered_power_ratio)
+    heating = delayed_input(time, heating, params.effects.dead_time)
+    conductance = thermal_conductance(params.fiber, params.thermal)
+    tau = heat_capacity(params.fiber) / conductance
+    ambient = fx.true_ambient(params.thermal, params.effects)
+    return ambient + first_order_response(time, heating / conductance, tau)
+
+
+def actuating_temperature(time, temperature, params):
+    """Return the fiber temperature T_f (degC) behind the second thermal lag.
+
+    tau_2 dT_f/dt = T - T_f ('second_thermal_lag' in effects.py), T (degC) at ``time``
+    (s) linear between samples; T_f = T when the lag is off.
+    """
+    tau = params.effects.second_thermal_lag
+    if tau <= 0.0:
+        return temperature
+    start = temperature[0]
+    return start + first_order_response(time, temperature - start, tau, held=False)
+
+
+def first_order_response(time, target, tau, held=True):
+    """Return y(t) of tau y' = target - y, y(0) = 0 (units of ``target``; tau in s).
+
+    ``held``: the target is held constant over each interval (zero-order hold,
+    exact); otherwise it is taken linear between samples (first-order hold, exact
+    for a piecewise-linear target). Uniform or non-uniform time grids.
+    """
+    time = np.asarray(time, dtype=float)
+    target = np.asarray(target, dtype=float)
+    out = np.zeros_like(target)
+    if time.size < 2:
+        return out
+    dt = np.diff(time)
+    if tau <= 0.0:
+        return target.copy() if not held else np.concatenate(([0.0], target[:-1]))
+    if np.ptp(dt) <= 1e-9 * dt.mean():
+        a = math.exp(-dt[0] / tau)
+        if held:
+            out[1:] = lfilter([1.0 - a], [1.0, -a], target[:-1])
+        else:
+            # y_{k+1} = a y_k + (1 - a) u_{k+1} - (a - c)(u_{k+1} - u_k), c = (1 - a) tau / dt
+            c = (1.0 - a) * tau / dt[0]
+            b0, b1 = 1.0 - c, c - a
+            out[1:] = lfilter([b0, b1], [1.0, -a], target[1:], zi=[b1 * target[0]])[0]
+        return out
+    for k, h in enumerate(dt):
+        a = math.exp(-h / tau)
+        if held:
+            out[k + 1] = a * out[k] + (1.0 - a) * target[k]
+        else:
+            c = (1.0 - a) * tau / h
+            out[k + 1] = a * out[k] + (1.0 - c) * target[k + 1] + (c - a) * target[k]
+    return out
+
+
+def delayed_input(time, values, delay):
+    """Return the zero-order-hold signal ``values`` delayed by ``delay`` (s).
+
+    Each interval [t_k, t_k+1) carries the mean of the delayed signal over it, so
+    the heat delivered is preserved and the result is continuous in ``delay``
+    (what a gradient-based fit needs). Before the record starts the signal is
+    its first value.
+    """
+    values = np.asarray(values, dtype=float)
+    if delay <= 0.0 or values.size < 2:
+        return values
+    time = np.asarray(time, dtype=float)
+    # cumulative integral of the held signal, evaluated at shifted interval ends
+    dt = np.diff(time)
+    integral = np.concatenate(([0.0], np.cumsum(values[:-1] * dt)))
+
+    def cumulative(t):
+        t = np.asarray(t, dtype=float)
+        before = np.minimum(t - time[0], 0.0) * values[0]
+        k = np.clip(np.searchsorted(time, t, side='right') - 1, 0, time.size - 1)
+        inside = integral[k] + values[k] * (np.maximum(t, time[0]) - time[k])
+        return np.where(t < time[0], before, inside)
+
+    start, end = time[:-1] - delay, time[1:] - delay
+    out = values.copy()
+    out[:-1] = (cumulative(end) - cumulative(start)) / dt
+    out[-1] = out[-2]
+    return out
+
+
+def static_map(model, load, temperatures, stop, stiffness_every=4):
+    """Return (y_eq (m), k (N/m)) on ``temperatures`` (degC) under ``load`` (N).
+
+    y_eq solves f_rod(y, T) = load (eq. (18) at rest) with the coil-contact stop
+    ``stop`` (m); k is the axial stiffness dF/dy there (inf in contact), solved at
+    every ``stiffness_every``-th temperature and interpolated (it only sets the
+    mechanical lag b / k).
+    """
+    temps = np.asarray(temperatures, dtype=float)
+    step = max(abs(load), 1e-3) * STIFFNESS_LOAD_STEP
+    y = np.empty(temps.size)
+    guess = None
+    for i, temp in enumerate(temps):
+        guess = model.equilibrium_elongation(load, float(temp), guess=guess)
+        y[i] = guess
+    if not np.all(np.isfinite(y)):
+        raise ArithmeticError(f'static map: no equilibrium under load = {load:g} N')
+    sub = np.unique(np.concatenate((np.arange(0, temps.size, stiffness_every),
+                                    [temps.size - 1])))
+    k_sub = np.empty(sub.size)
+    for j, i in enumerate(sub):
+        up = model.equilibrium_elongation(load + step, float(temps[i]), guess=y[i])
+        k_sub[j] = step / (up - y[i]) if up > y[i] else 1e12
+    k = np.interp(temps, temps[sub], k_sub)
+    in_contact = y < stop
+    y[in_contact] = stop
+    k[in_contact] = math.inf
+    return y, k
+
+
+class ExactHelixStatics:
+    """Static equilibrium of the rod model without its dynamics table.
+
+    The rod model's equilibrium of a helical TCA under an axial end load is the
+    exact uniform helix (rod_model.helix_elongation); a fit that changes the
+    mechanical parameters at every evaluation needs only that, not the
+    (elongation, temperature) table the time stepper interpolates.
+    """
+
+    name = 'rod'
+
+    def __init__(self, params):
+        if params.coil.shape != 'helix':
+            raise QuasiStaticUnsupported(
+                f'coil.shape = {params.coil.shape!r}: the quasi-static reduction needs a '
+                'helix')
+        self.params = params
+        self.natural_length = params.fiber.length * math.sin(params.coil.pitch_angle)
+
+    def equilibrium_elongation(self, load, temperature, guess=None):
+        """Return y (m) with f_rod(y, T) = load (N) at temperature (degC), no contact."""
+        return float(helix_elongation(self.params, temperature, load))
+
+
+def make_statics(params, model=None):
+    """Return the static-equilibrium solver of ``model`` (rod | cst | love)."""
+    name = model or params.model
+    if name == 'rod':
+        return ExactHelixStatics(params)
+    return make_kinetostatic_model(params, name)
+
+
+class QuasiStaticPlant:
+    """The quasi-static TCA of one parameter set; static maps shared between records.
+
+    Parameters
+    ----------
+    params : TcaParams
+    model : str, optional
+        Kinetostatic model rod | cst | love (default ``params.model``).
+    temperature_range : (float, float), optional
+        Temperatures (degC) the static maps cover; extended on demand.
+    """
+
+    def __init__(self, params, model=None, kinetostatics=None):
+        check_supported(params)
+        self.params = params
+        self.kinetostatics = kinetostatics or make_statics(params, model)
+        self.ambient = fx.true_ambient(params.thermal, params.effects)
+        self.stop = contact_elongation(params)
+        self._maps = {}  # load -> (grid, y, k)
+
+    def static_map(self, load, low, high):
+        """Return (grid (degC), y_eq (m), k (N/m)) covering [low, high] degC at load (N)."""
+        cached = self._maps.get(load)
+        if cached is not None and cached[0][0] <= low and cached[0][-1] >= high:
+            return cached
+        if cached is not None:
+            low, high = min(low, cached[0][0]), max(high, cached[0][-1])
+        grid = np.arange(low - MAP_MARGIN, high + MAP_MARGIN + MAP_TEMP_STEP, MAP_TEMP_STEP)
+        y, k = static_map(self.kinetostatics, load, grid, self.stop)
+        self._maps[load] = (grid, y, k)
+        return self._maps[load]
+
+    def simulate(self, time, power, load=None):
+        """Return the SimulationResult of a power (W) and load (N) profile at time (s)."""
+        params = self.params
+        time = np.asarray(time, dtype=float)
+        power = np.asarray(power, dtype=float)
+        load = (np.full_like(time, params.dynamics.load) if load is None
+                else np.asarray(load, dtype=float))
+        temperature = thermal_response(time, power, params)
+        actuating = actuating_temperature(time, temperature, params)
+        low = min(float(actuating.min()), self.ambient)
+        high = max(float(actuating.max()), self.ambient)
+        # the load acting over [t_k, t_k+1) is load[k]; the equilibrium at t_k+1 uses it
+        acting = np.concatenate(([load[0]], load[:-1]))
+        distinct = np.unique(acting)
+        if distinct.size > MAX_DISTINCT_LOADS:
+            raise QuasiStaticUnsupported(
+                f'load takes {distinct.size} distinct values; the quasi-static reduction '
+                f'solves at most {MAX_DISTINCT_LOADS}: use dynamics.simulate')
+        y_eq = np.empty_like(time)
+        stiffness = np.empty_like(time)
+        for value in distinct:
+            grid, y_map, k_map = self.static_map(float(value), low, high)
+            sel = acting == value
+            y_eq[sel] = np.interp(actuating[sel], grid, y_map)
+            stiffness[sel] = np.interp(actuating[sel], grid, k_map)
+        grid, y_map, _ = self.static_map(float(load[0]), low, high)
+        y_ref = float(np.interp(self.ambient, grid, y_map))
+        elongation = _mechanical_lag(time, y_eq, stiffness, params.dynamics.damping)
+        contraction = y_ref - elongation
+        tension = np.where(elongation <= self.stop, np.maximum(acting, 0.0), acting)
+        measured = contraction
+        if params.effects.sensor_lag > 0.0:  # the sensor starts settled
+            measured = contraction[0] + first_order_response(
+                time, contraction - contraction[0], params.effects.sensor_lag, held=False)
+        loaded_length = self.kinetostatics.natural_length + y_ref
+        r = resistance(temperature, contraction, loaded_length, params.electrical,
+                       params.thermal.ambient_temperature)
+        velocity = np.gradient(contraction, time) if time.size > 1 else np.zeros_like(time)
+        return SimulationResult(time=time, power=power, load=load, displacement=measured,
+                                temperature=temperature, resistance=r, tension=tension,
+                                velocity=velocity, true_displacement=contraction, substeps=0)
+
+
+def simulate_quasistatic(params, time, power, load=None, model=None, kinetostatics=None):
+    """Quasi-static simulation of a power (W) and load (N) profile at ``time`` (s).
+
+    Same inputs and SimulationResult as ``dynamics.simulate`` (``substeps`` 0).
+    The displacement reference is the loaded equilibrium at ambient under
+    ``load[0]``.
+    """
+    plant = QuasiStaticPlant(params, model=model, kinetostatics=kinetostatics)
+    return plant.simulate(time, power, load)
+
+
+def _mechanical_lag(time, y_eq, stiffness, damping):
+    """Return y(t) of (b / k) y' = y_eq - y, y(0) = y_eq(0) (m).
+
+    Exact per interval for y_eq linear between samples (first-order hold), so a
+    ramp is followed with the lag (b / k) dy_eq/dt of the damped quasi-static
+    motion; b / k is taken at the interval's end.
+    """
+    if damping <= 0.0 or time.size < 2:
+        return y_eq.copy()
+    y = np.empty_like(y_eq)
+    y[0] = y_eq[0]
+    dt = np.diff(time)
+    with np.errstate(divide='ignore'):
+        tau = np.where(np.isfinite(stiffness), damping / stiffness, 0.0)[1:]
+    tau = np.maximum(tau, 1e-12)
+    a = np.exp(-dt / tau)
+    c = (1.0 - a) * tau / dt
+    for k in range(dt.size):
+        y[k + 1] = a[k] * y[k] + (1.0 - c[k]) * y_eq[k + 1] + (c[k] - a[k]) * y_eq[k]
+    return y
