@@ -20,6 +20,7 @@ line naming the file, the row (1-based line number) and the column.
 from dataclasses import dataclass, field, replace
 import math
 import os
+import re
 
 import numpy as np
 
@@ -31,9 +32,24 @@ REQUIRED_HEADER = ('tca', 'mass_kg', 'sample_rate_hz')
 JITTER_TOLERANCE = 0.01  # relative spread of sample intervals accepted as uniform
 RATE_TOLERANCE = 0.05  # relative mismatch allowed between sample_rate_hz and the time column
 MIN_SAMPLES = 20  # fewer samples cannot be split into train and held-out parts
+MAX_SAMPLES = 1_000_000  # default bound on a record's samples: about 50 MB of arrays
+MAX_LINE_BYTES = 4096  # a line of six numbers needs < 200 bytes; longer is not a record
+ECHO_CHARS = 40  # characters of a bad value quoted in an error message
+# plain ASCII decimal numbers only: float() also takes '1_000' and non-ASCII digits
+NUMBER = re.compile(r'[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?', re.ASCII)
+NON_FINITE = re.compile(r'[+-]?(?:nan|inf|infinity)', re.ASCII | re.IGNORECASE)
 # 'power' is the power the node applied (after clamping, watchdog, V^2/R); preferred over
 # the commanded 'power_cmd' when the bag has it
-BAG_TOPICS = ('power', 'power_cmd', 'load', 'displacement', 'temperature')
+BAG_TOPICS = ('power', 'power_cmd', 'load', 'displacement', 'joint_states', 'temperature')
+BAG_TYPES = {'power': 'std_msgs/msg/Float64', 'power_cmd': 'std_msgs/msg/Float64',
+             'load': 'std_msgs/msg/Float64', 'displacement': 'std_msgs/msg/Float64',
+             'joint_states': 'sensor_msgs/msg/JointState',
+             'temperature': 'sensor_msgs/msg/Temperature'}
+# allowed message values: power is dissipated (>= 0), load is the params' dynamics.load range
+BAG_RANGES = {'power': (0.0, math.inf), 'power_cmd': (0.0, math.inf), 'load': (0.0, 1e3),
+              'temperature': (-273.15, math.inf)}
+BAG_UNITS = {'power': 'W', 'power_cmd': 'W', 'load': 'N', 'temperature': 'degC'}
+DEFAULT_JOINT = 'tca_joint'  # the node's default joint_name
 TIME, DISPLACEMENT = 'time', 'displacement'  # column names quoted in errors
 
 
@@ -90,8 +106,11 @@ class Record:
         return float(self.meta['mass_kg'])
 
 
-def read_record(path):
+def read_record(path, max_samples=None):
     """Return the Record in ``path``: a CSV file, an MCAP file or a rosbag2 directory.
+
+    ``max_samples`` bounds the samples of the (uniform) record; a record needing
+    more is refused before it is built (default: no bound).
 
     Raises
     ------
@@ -101,8 +120,8 @@ def read_record(path):
     if not os.path.exists(path):
         raise DataError(f'{path}: no such file or directory')
     if os.path.isdir(path) or path.endswith('.mcap'):
-        return read_bag_record(path)
-    return read_csv_record(path)
+        return read_bag_record(path, max_samples=max_samples)
+    return read_csv_record(path, max_samples=max_samples)
 
 
 def record_config(record):
@@ -141,34 +160,82 @@ def clip(text, limit=40):
 
 
 def parse_number(text, path, row, column):
-    """Return ``text`` as a finite float, or raise DataError naming file, row, column."""
-    try:
-        value = float(text)
-    except ValueError:
-        raise DataError(f'{path}: row {row}, column {column!r}: {text.strip()!r} is not a '
-                        'number') from None
+    """Return ``text`` as a finite float, or raise DataError naming file, row, column.
+
+    Only plain ASCII decimals (``-1.5e-3``) are numbers: no digit separators, no
+    non-ASCII digits, no hex; ``nan`` and ``inf`` are refused as not finite.
+    """
+    text = text.strip()
+    if NON_FINITE.fullmatch(text):
+        raise DataError(f'{path}: row {row}, column {column!r}: {text!r} is not finite')
+    if not NUMBER.fullmatch(text):
+        raise DataError(f'{path}: row {row}, column {column!r}: {clip(text, ECHO_CHARS)!r} '
+                        'is not a number (allowed: ASCII decimal, e.g. -1.5e-3)')
+    value = float(text)
     if not math.isfinite(value):
-        raise DataError(f'{path}: row {row}, column {column!r}: {text.strip()!r} is not '
-                        'finite')
+        raise DataError(f'{path}: row {row}, column {column!r}: {clip(text, ECHO_CHARS)!r} '
+                        'is not finite (beyond +-1.8e308)')
     return value
 
 
-def read_csv_record(path):
-    """Return the Record of a CSV file with a ``# key: value`` header (see module doc)."""
+def read_text_lines(path, max_lines=None, max_line_bytes=MAX_LINE_BYTES):
+    """Yield (row, text) of a UTF-8 text file, row 1-based; a leading BOM is dropped.
+
+    Reads one bounded line at a time, so neither a huge line nor a huge file is
+    held in memory. Raises DataError naming the row of a line that is not UTF-8,
+    longer than ``max_line_bytes``, or beyond ``max_lines``.
+    """
     try:
-        with open(path, encoding='utf-8') as fh:
-            lines = fh.read().splitlines()
-    except (OSError, UnicodeDecodeError) as exc:
-        raise DataError(f'{path}: cannot read ({exc})') from None
+        fh = open(path, 'rb')
+    except OSError as exc:
+        raise DataError(f'{path}: cannot open ({exc.strerror})') from None
+    with fh:
+        row = 0
+        while True:
+            try:
+                raw = fh.readline(max_line_bytes + 1)
+            except OSError as exc:
+                raise DataError(f'{path}: row {row + 1}: cannot read ({exc.strerror})') \
+                    from None
+            if not raw:
+                return
+            row += 1
+            if len(raw) > max_line_bytes and not raw.endswith(b'\n'):
+                raise DataError(f'{path}: row {row}: line longer than {max_line_bytes} bytes '
+                                '(a record line holds a few numbers)')
+            if max_lines is not None and row > max_lines:
+                raise DataError(f'{path}: row {row}: more than {max_lines} lines (limit; '
+                                'raise it with --max-samples)')
+            if row == 1 and raw.startswith(b'\xef\xbb\xbf'):
+                raw = raw[3:]  # UTF-8 byte-order mark, as some spreadsheets write
+            try:
+                text = raw.decode('utf-8')
+            except UnicodeDecodeError as exc:
+                raise DataError(f'{path}: row {row}: byte {exc.start + 1} '
+                                f'(0x{raw[exc.start]:02x}) is not UTF-8 text') from None
+            yield row, text.rstrip('\r\n')
+
+
+def read_csv_record(path, max_samples=None):
+    """Return the Record of a CSV file with a ``# key: value`` header (see module doc).
+
+    ``max_samples`` (default: no bound) bounds the data rows and the samples of
+    the uniform grid; a record beyond it is refused before it is built.
+    """
     meta, meta_rows, header_row, columns = {}, {}, None, None
     rows = []
-    for number, line in enumerate(lines, start=1):
+    max_lines = None if max_samples is None else max_samples + 1000  # + header lines
+    for number, line in read_text_lines(path, max_lines):
         text = line.strip()
         if not text:
             continue
         if columns is None and text.startswith('#'):
             key, sep, value = text[1:].partition(':')
             if sep:
+                if key.strip() in meta:
+                    raise DataError(f'{path}: row {number}, column {clip(key.strip())!r}: '
+                                    f'header key repeated (first on row '
+                                    f'{meta_rows[key.strip()]})')
                 meta[key.strip()] = value.strip()
                 meta_rows[key.strip()] = number
             continue
@@ -195,6 +262,7 @@ def read_csv_record(path):
     row_numbers = [r[0] for r in rows]
     data = {c: values[:, i] for i, c in enumerate(columns)}
     _check_values(data, row_numbers, path)
+    _check_span(data['time'], float(meta['sample_rate_hz']), row_numbers, path, max_samples)
     record = Record(time=data['time'] - data['time'][0], power=data['power'],
                     load=data['load'], displacement=data['displacement'],
                     temperature=data.get('temperature'), resistance=data.get('resistance'),
@@ -207,7 +275,7 @@ def _check_columns(columns, path, row):
     known = REQUIRED_COLUMNS + OPTIONAL_COLUMNS
     for c in columns:
         if c not in known:
-            raise DataError(f'{path}: row {row}, column {c!r}: unknown column (known: '
+            raise DataError(f'{path}: row {row}, column {clip(c)!r}: unknown column (known: '
                             f'{", ".join(known)})')
     if len(set(columns)) != len(columns):
         dup = next(c for c in columns if columns.count(c) > 1)
@@ -231,6 +299,24 @@ def _check_meta(meta, path, meta_rows):
         meta[key] = value
 
 
+def _check_span(time, rate, row_numbers, path, max_samples):
+    """Refuse times whose differences lose precision or whose grid exceeds the bound."""
+    shifted = time - time[0]
+    steps = np.diff(shifted)
+    bad = np.flatnonzero(~(np.isfinite(steps) & (steps > 0.0)))
+    if bad.size:
+        i = int(bad[0]) + 1
+        raise DataError(f'{path}: row {row_numbers[i]}, column {TIME!r}: {time[i]:g} s is '
+                        f'not resolvable after {time[0]:g} s (times must stay within about '
+                        '1e15 sample intervals of the first)')
+    if max_samples is not None:
+        samples = shifted[-1] * rate + 1.0
+        if not samples <= max_samples:
+            raise DataError(f'{path}: row {row_numbers[-1]}, column {TIME!r}: {time[-1]:g} s '
+                            f'spans {shifted[-1]:.4g} s = {samples:.4g} samples at '
+                            f'{rate:g} Hz; the limit is {max_samples} (--max-samples)')
+
+
 def _check_values(data, row_numbers, path):
     time = data['time']
     bad = np.flatnonzero(np.diff(time) <= 0.0)
@@ -242,7 +328,7 @@ def _check_values(data, row_numbers, path):
             neg = np.flatnonzero(data[column] < low)
             if neg.size:
                 raise DataError(f'{path}: row {row_numbers[neg[0]]}, column {column!r}: '
-                                f'{data[column][neg[0]]:g} is negative')
+                                f'{data[column][neg[0]]:g} is negative (allowed >= 0)')
 
 
 def _check_rate(record, path, row):
@@ -302,17 +388,25 @@ def write_csv_record(record, path, comments=()):
         np.savetxt(fh, table, fmt=fmt)
 
 
-def read_bag_record(path, sample_rate=None, tca='', mass_kg=None):
+def read_bag_record(path, sample_rate=None, tca='', mass_kg=None, load=None,
+                    joint_name=None, max_samples=None):
     """Return the Record of a rosbag2 recording (MCAP or sqlite3) of the node's topics.
 
-    Topics are matched by their last name (``/finger1/displacement`` counts as
-    ``displacement``): ``power_cmd`` and ``load`` (std_msgs/Float64, held until the
-    next message), ``displacement`` (std_msgs/Float64, m) and optionally
-    ``temperature`` (sensor_msgs/Temperature, degC); the node's ``power`` topic (the
-    power it applied) replaces ``power_cmd`` when present. Times are the recording times;
-    the grid starts at the first displacement message and has the displacement
-    topic's median rate unless ``sample_rate`` (Hz) is given. ``tca`` and
-    ``mass_kg`` fill the header a bag lacks (the caller takes them from the config).
+    Topics are matched by their last name (``/finger1/joint_states`` counts as
+    ``joint_states``). Displacement (m) is the position of ``joint_states``
+    (sensor_msgs/JointState: the joint ``joint_name``, default the node's
+    ``tca_joint``, or its only joint) at its header stamps, or else the
+    ``displacement`` topic (std_msgs/Float64) at its receive times. Temperature
+    (sensor_msgs/Temperature, degC) is taken at its header stamps, on the same
+    clock. ``power`` (the power the node applied) or else ``power_cmd`` (W) and
+    ``load`` (N; std_msgs/Float64, unstamped) are held from their receive times,
+    mapped onto the stamp clock through the displacement messages' receive times;
+    before the first message the power is 0 W and the load ``load`` (N), or the
+    config ``tca``'s dynamics.load, or ``mass_kg`` times GRAVITY. The grid starts
+    at the first displacement sample with the displacement's median rate unless
+    ``sample_rate`` (Hz) is given. An MCAP file is checked for integrity first;
+    a single ``.mcap`` file is read alone, never its directory's other files.
+    Errors name the topic as the column and the message (1-based) as the row.
     """
     try:
         from rosbags.highlevel import AnyReader
@@ -321,63 +415,169 @@ def read_bag_record(path, sample_rate=None, tca='', mass_kg=None):
                         '(pip install rosbags)') from None
     from pathlib import Path
     bag = Path(path)
-    if bag.is_file():
-        bag = bag.parent
-    series = {name: ([], []) for name in BAG_TOPICS}
+    _check_bag_files(bag)
+    series = {name: [] for name in BAG_TOPICS}  # (receive ns, header stamp ns or 0, value)
     try:
         with AnyReader([bag]) as reader:
-            wanted = [c for c in reader.connections
-                      if c.topic.rstrip('/').rsplit('/', 1)[-1] in BAG_TOPICS]
+            wanted = [c for c in reader.connections if _topic(c.topic) in BAG_TOPICS]
+            for conn in wanted:
+                expected = BAG_TYPES[_topic(conn.topic)]
+                if conn.msgtype != expected:
+                    raise DataError(f'{path}: row 1, column {_topic(conn.topic)!r}: topic '
+                                    f'{clip(conn.topic)!r} has type {clip(conn.msgtype)!r}, '
+                                    f'expected {expected!r}')
             for conn, stamp, raw in reader.messages(connections=wanted):
-                name = conn.topic.rstrip('/').rsplit('/', 1)[-1]
+                name = _topic(conn.topic)
                 msg = reader.deserialize(raw, conn.msgtype)
-                value = msg.temperature if name == 'temperature' else msg.data
-                series[name][0].append(stamp)  # int ns: float s would lose precision
-                series[name][1].append(float(value))
+                row = len(series[name]) + 1
+                series[name].append((stamp, _header_stamp(msg),
+                                     _bag_value(name, msg, joint_name, path, row)))
     except DataError:
         raise
     except Exception as exc:  # rosbags raises several unrelated types
+        first = str(exc).splitlines()[0] if str(exc) else ''
         raise DataError(f'{path}: row 1, column {TIME!r}: not a readable rosbag2 recording '
-                        f'({type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ""})'
-                        ) from None
-    power_topic = 'power' if series['power'][0] else 'power_cmd'
-    for name in (power_topic, 'displacement'):
-        if not series[name][0]:
-            raise DataError(f'{path}: row 1, column {name!r}: topic {name!r} (or power) not '
-                            'in the recording')
-    origin = series['displacement'][0][0]
-    for name in series:
-        series[name] = ([(s - origin) * 1e-9 for s in series[name][0]], series[name][1])
-    t_x, x = (np.asarray(v) for v in series['displacement'])
-    for name, (stamps, values) in series.items():
-        bad = [i for i, v in enumerate(values) if not math.isfinite(v)]
-        if bad:
-            raise DataError(f'{path}: row {bad[0] + 1}, column {name!r}: message value '
-                            f'{values[bad[0]]!r} is not finite')
-    rate = sample_rate or 1.0 / float(np.median(np.diff(t_x)))
-    t0 = t_x[0]
-    grid = np.arange(0.0, t_x[-1] - t0 + 0.5 / rate, 1.0 / rate)
+                        f'({type(exc).__name__}: {clip(first, 80)})') from None
+    power_topic = 'power' if series['power'] else 'power_cmd'
+    disp_topic = 'joint_states' if series['joint_states'] else DISPLACEMENT
+    for name, what in ((power_topic, 'power_cmd (or power)'),
+                       (disp_topic, 'joint_states (or displacement)')):
+        if not series[name]:
+            raise DataError(f'{path}: row 1, column {name!r}: topic {what} not in the '
+                            'recording')
+    for name, samples in series.items():
+        _check_bag_values(name, [s[2] for s in samples], path)
+    disp = series[disp_topic]
+    receive = np.array([s[0] for s in disp], dtype=np.int64)
+    stamped = disp_topic == 'joint_states' and any(s[1] for s in disp)
+    clock = np.array([s[1] for s in disp], dtype=np.int64) if stamped else receive
+    _check_increasing(clock, disp_topic, 'header stamp' if stamped else 'receive time', path)
+    origin = int(clock[0])
+    t_x = (clock - origin) * 1e-9
+    x = np.array([s[2] for s in disp])
+    rate = sample_rate or 1.0 / float(np.median(np.diff(t_x))) if t_x.size > 1 else None
+    if rate is None or not (math.isfinite(rate) and rate > 0.0):
+        raise DataError(f'{path}: row {len(disp)}, column {disp_topic!r}: {len(disp)} '
+                        f'samples, need at least {MIN_SAMPLES}')
+    count = t_x[-1] * rate + 1.0
+    if max_samples is not None and not count <= max_samples:
+        raise DataError(f'{path}: row {len(disp)}, column {disp_topic!r}: the recording '
+                        f'spans {t_x[-1]:.4g} s = {count:.4g} samples at {rate:.4g} Hz; the '
+                        f'limit is {max_samples} (--max-samples)')
+    if count < MIN_SAMPLES:
+        raise DataError(f'{path}: row {len(disp)}, column {disp_topic!r}: {int(count)} '
+                        f'samples, need at least {MIN_SAMPLES}')
+    grid = np.arange(int(math.floor(count + 1e-9))) / rate
+    grid = grid[grid <= t_x[-1] + 0.5 / rate]
 
-    def hold(name, default):
-        stamps, values = series[name]
-        if not stamps:
-            return np.full_like(grid, default if default is not None else 0.0)
-        stamps, values = np.asarray(stamps) - t0, np.asarray(values)
-        idx = np.searchsorted(stamps, grid, side='right') - 1
-        first = values[0] if default is None else default
-        return np.where(idx >= 0, values[np.clip(idx, 0, None)], first)
+    def on_clock(samples):
+        """Return the times (s, from the first displacement) of unstamped messages."""
+        got = np.array([s[0] for s in samples], dtype=np.int64)
+        if not stamped:
+            return (got - origin) * 1e-9
+        # receive time -> stamp clock, through the displacement messages' receive times
+        rel, ref = (got - receive[0]) * 1e-9, (receive - receive[0]) * 1e-9
+        out = np.interp(rel, ref, t_x)
+        out = np.where(rel < ref[0], t_x[0] + rel - ref[0], out)
+        return np.where(rel > ref[-1], t_x[-1] + rel - ref[-1], out)
+
+    def hold(name, before):
+        samples = series[name]
+        if not samples:
+            return np.full_like(grid, before)
+        idx = np.searchsorted(on_clock(samples), grid, side='right') - 1
+        values = np.array([s[2] for s in samples])
+        return np.where(idx >= 0, values[np.clip(idx, 0, None)], before)
 
     mass = float(mass_kg) if mass_kg is not None else 0.0
-    power = np.clip(hold(power_topic, 0.0), 0.0, None)
-    load = hold('load', None if series['load'][0] else mass * GRAVITY)
-    disp = np.interp(grid, t_x - t0, x)
+    if load is None and tca:
+        from tca_ros.model.params import load_params
+        load = load_params(tca).dynamics.load
+    initial_load = float(load) if load is not None else mass * GRAVITY
+    power = hold(power_topic, 0.0)
+    load_series = hold('load', initial_load)
     temp = None
-    if series['temperature'][0]:
-        stamps, values = series['temperature']
-        temp = np.interp(grid, np.asarray(stamps) - t0, np.asarray(values))
+    if series['temperature']:
+        samples = series['temperature']
+        if stamped and any(s[1] for s in samples):
+            t_temp = (np.array([s[1] for s in samples], dtype=np.int64) - origin) * 1e-9
+            kind = 'header stamp'
+        else:
+            t_temp, kind = on_clock(samples), 'receive time'
+        _check_increasing(t_temp, 'temperature', kind, path)
+        temp = np.interp(grid, t_temp, np.array([s[2] for s in samples]))
     meta = {'tca': tca, 'mass_kg': mass, 'sample_rate_hz': rate}
-    if grid.size < MIN_SAMPLES:
-        raise DataError(f'{path}: row {grid.size}, column {DISPLACEMENT!r}: {grid.size} '
-                        f'samples, need at least {MIN_SAMPLES}')
-    return Record(time=grid, power=power, load=load, displacement=disp, temperature=temp,
-                  meta=meta, source=str(path))
+    return Record(time=grid, power=power, load=load_series,
+                  displacement=np.interp(grid, t_x, x), temperature=temp, meta=meta,
+                  source=str(path))
+
+
+def _topic(name):
+    return name.rstrip('/').rsplit('/', 1)[-1]
+
+
+def _header_stamp(msg):
+    """Return the header stamp (int ns) of a stamped message, 0 if it has none.
+
+    A topic whose stamps are all 0 was published unstamped: its receive times count.
+    """
+    header = getattr(msg, 'header', None)
+    if header is None:
+        return 0
+    return int(header.stamp.sec) * 1_000_000_000 + int(header.stamp.nanosec)
+
+
+def _bag_value(name, msg, joint_name, path, row):
+    """Return the float a message carries: data, temperature or the joint's position."""
+    if name == 'temperature':
+        return float(msg.temperature)
+    if name != 'joint_states':
+        return float(msg.data)
+    names, position = list(msg.name), list(msg.position)
+    wanted = joint_name or DEFAULT_JOINT
+    if wanted in names:
+        index = names.index(wanted)
+    elif joint_name is None and len(position) == 1 and len(names) <= 1:
+        index = 0  # a lone joint is the muscle, whatever its name
+    else:
+        raise DataError(f'{path}: row {row}, column {"joint_states"!r}: no joint '
+                        f'{clip(wanted)!r} (joints: {clip(", ".join(names))})')
+    if index >= len(position):
+        raise DataError(f'{path}: row {row}, column {"joint_states"!r}: joint {clip(wanted)!r} '
+                        f'has no position ({len(position)} positions for {len(names)} names)')
+    return float(position[index])
+
+
+def _check_bag_values(name, values, path):
+    """Refuse non-finite values, negative power and loads outside the params' range."""
+    low, high = BAG_RANGES.get(name, (-math.inf, math.inf))
+    for row, value in enumerate(values, start=1):
+        if not math.isfinite(value) or not low <= value <= high:
+            allowed = 'finite' if math.isinf(high) and math.isinf(low) else \
+                f'{low:g} to {high:g} {BAG_UNITS[name]}'
+            raise DataError(f'{path}: row {row}, column {name!r}: message value {value!r} '
+                            f'is out of range (allowed: {allowed})')
+
+
+def _check_increasing(times, name, kind, path):
+    bad = np.flatnonzero(np.diff(times) <= 0)
+    if bad.size:
+        i = int(bad[0]) + 1
+        raise DataError(f'{path}: row {i + 1}, column {name!r}: {kind} does not increase '
+                        f'(message {i + 1} is not after message {i})')
+
+
+def _check_bag_files(bag):
+    """Refuse a bag whose MCAP files are not intact (see bag_integrity)."""
+    from tca_ros.diagnosis.bag_integrity import BagCorrupt, check_mcap
+    files = sorted(bag.glob('*.mcap')) if bag.is_dir() else [bag]
+    for file in files:
+        if file.suffix != '.mcap':
+            continue
+        try:
+            check_mcap(file)
+        except BagCorrupt as exc:
+            raise DataError(f'{file}: row 1, column {TIME!r}: not a readable rosbag2 '
+                            f'recording (MCAP {exc})') from None
+        except OSError as exc:
+            raise DataError(f'{file}: cannot read ({exc.strerror})') from None
