@@ -103,6 +103,8 @@ def cross_correlation_lag(measured, predicted, sample_rate, max_lag_s=3.0):
     """
     a = np.diff(np.asarray(measured, dtype=float))
     b = np.diff(np.asarray(predicted, dtype=float))
+    if a.size == 0:  # one sample: no increments to correlate
+        return np.zeros(1), np.zeros(1), 0.0
     a, b = a - a.mean(), b - b.mean()
     max_lag = int(min(max_lag_s * sample_rate, a.size // 4))
     lags = np.arange(-max_lag, max_lag + 1)
@@ -113,8 +115,16 @@ def cross_correlation_lag(measured, predicted, sample_rate, max_lag_s=3.0):
 
 
 def heating_mask(temperature, sample_rate, smooth_s=0.5):
-    """Return True where the (smoothed) temperature rises: the heating branch."""
-    width = max(1, int(round(smooth_s * sample_rate)))
+    """Return True where the (smoothed) temperature rises: the heating branch.
+
+    The smoothing window is cut to the series' length: ``np.convolve(mode='same')``
+    returns the longer of its two inputs, so a window longer than a short held-out
+    part would give a mask longer than the residual.
+    """
+    temperature = np.asarray(temperature, dtype=float)
+    if temperature.size < 2:
+        return np.zeros(temperature.size, dtype=bool)
+    width = min(max(1, int(round(smooth_s * sample_rate))), temperature.size)
     kernel = np.ones(width) / width
     smooth = np.convolve(temperature, kernel, mode='same')
     return np.gradient(smooth) > 0.0
