@@ -104,7 +104,7 @@ def cmd_config_new(args, out):
     try:
         result = describe_muscle(spec)
     except MuscleError as exc:
-        raise ParameterError(exc.renamed(FLAGS.get(exc.field, exc.field))) from None
+        raise ParameterError(exc.renamed(FLAGS)) from None
     params = result.params
     derived = dict(result.derived)
     if spec.coil != 'conical':

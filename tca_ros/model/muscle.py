@@ -27,6 +27,7 @@ References
 from dataclasses import dataclass, field
 import math
 import os
+import re
 
 import numpy as np
 from scipy.optimize import brentq
@@ -80,17 +81,22 @@ class MuscleError(ParameterError):
         self.reason = reason
         super().__init__(self._text(field_name))
 
-    def _text(self, name):
-        if isinstance(self.value, float):
-            shown = f'{self.value:g}'
-        else:
-            shown = str(self.value)
-        unit = f' {self.unit}' if self.unit and self.value is not None else ''
-        return f'{name} = {shown}{unit}: {self.reason}'
+    def _text(self, name, names=None):
+        reason = self.reason
+        for key in _FIELD_TOKEN.findall(reason):
+            reason = reason.replace(f'<{key}>', (names or {}).get(key, key))
+        if self.value is None:
+            return f'{name}: {reason}'
+        shown = f'{self.value:g}' if isinstance(self.value, float) else str(self.value)
+        unit = f' {self.unit}' if self.unit and self.unit != '-' else ''
+        return f'{name} = {shown}{unit}: {reason}'
 
-    def renamed(self, name):
-        """Return the one-line message with the field shown as ``name`` (e.g. a flag)."""
-        return self._text(name)
+    def renamed(self, names):
+        """Return the message with fields shown by ``names`` ({field: flag}) where given."""
+        return self._text(names.get(self.field, self.field), names)
+
+
+_FIELD_TOKEN = re.compile(r'<([a-z_]+)>')
 
 
 # -- thread presets -------------------------------------------------------------------
@@ -333,9 +339,8 @@ def _check_spec(spec, presets):
     if not (_finite(spec.ambient_degc) and low <= spec.ambient_degc <= high):
         raise MuscleError('ambient_degc', spec.ambient_degc,
                           f'must be in [{low:g}, {high:g}]', 'degC')
-    _exactly_one(spec, 'loaded_length', 'natural_length')
     if spec.loaded_length is not None and spec.mass == 0.0:
-        raise MuscleError('mass', spec.mass, 'a loaded length needs the hanging mass '
+        raise MuscleError('mass', spec.mass, 'a <loaded_length> needs the hanging mass '
                           '(> 0) it was measured under', 'kg')
     if spec.min_pitch_angle_deg is not None and not (
             _finite(spec.min_pitch_angle_deg) and 0.0 <= spec.min_pitch_angle_deg < 89.0):
@@ -353,7 +358,9 @@ def _helix_geometry(spec, flat, derived, r_t):
     for name in ('spiral_pitch', 'cone_angle_deg'):
         if getattr(spec, name) is not None:
             raise MuscleError(name, getattr(spec, name),
-                              f'only for a conical coil (this is {spec.coil})', _UNITS[name])
+                              f'only for a conical coil (this one is {spec.coil})',
+                              _UNITS[name])
+    _exactly_one(spec, 'loaded_length', 'natural_length')
     radius = _coil_radius(spec, r_t, derived)
     if radius <= r_t:
         raise MuscleError(_radius_field(spec), _radius_value(spec),
@@ -411,7 +418,8 @@ def _coil_radius(spec, r_t, derived):
              if getattr(spec, n) is not None]
     if len(given) > 1:
         raise MuscleError(given[1], getattr(spec, given[1]),
-                          f'give one of mandrel, coil or outer diameter (also got {given[0]})',
+                          f'give one of <mandrel_diameter>, <coil_diameter> and '
+                          f'<outer_diameter> (also got <{given[0]}>)',
                           'm')
     if spec.coil == 'self_coiled' and spec.mandrel_diameter is not None:
         raise MuscleError('mandrel_diameter', spec.mandrel_diameter,
@@ -430,8 +438,8 @@ def _coil_radius(spec, r_t, derived):
         note = ("ESTIMATED: r*/r_t of the paper's self-coiled TCA (0.227/0.21); "
                 'measure the coil to replace it')
     else:
-        raise MuscleError('mandrel_diameter', None,
-                          'a mandrel-coiled muscle needs the mandrel, coil or outer diameter')
+        raise MuscleError('mandrel_diameter', None, 'a mandrel-coiled muscle needs one of '
+                          '<mandrel_diameter>, <coil_diameter> and <outer_diameter>')
     derived['coil_radius'] = Derived(radius, 'm', note)
     return radius
 
@@ -541,11 +549,9 @@ def _conical_geometry(spec, flat, derived):
                  'loaded_length'):
         if getattr(spec, name) is not None:
             raise MuscleError(name, getattr(spec, name), 'not for a conical coil (give '
-                              '--spiral-pitch, --cone-angle and --coils or '
-                              '--natural-length)', _UNITS[name])
-    if spec.coils is None and spec.natural_length is None:
-        raise MuscleError('coils', None, 'a conical coil needs the coil count or the '
-                          'natural height')
+                              '<spiral_pitch>, <cone_angle_deg> and <coils> or '
+                              '<natural_length>)', _UNITS[name])
+    _exactly_one(spec, 'coils', 'natural_length')
     pitch = PAPER_SPIRAL_PITCH if spec.spiral_pitch is None else spec.spiral_pitch
     cone_deg = PAPER_CONE_ANGLE_DEG if spec.cone_angle_deg is None else spec.cone_angle_deg
     if not cone_deg < 170.0:
@@ -634,10 +640,10 @@ def _finite(value):
 def _exactly_one(spec, first, second):
     a, b = getattr(spec, first), getattr(spec, second)
     if a is None and b is None:
-        raise MuscleError(first, None, f'give exactly one of {first} and {second}')
+        raise MuscleError(first, None, f'give exactly one of <{first}> and <{second}>')
     if a is not None and b is not None:
-        raise MuscleError(second, b, f'give exactly one of {first} and {second} '
-                          f'(also got {first} = {a:g})', _UNITS[second])
+        raise MuscleError(second, b, f'give exactly one of <{first}> and <{second}> '
+                          f'(also got <{first}> = {a:g})', _UNITS[second])
 
 
 _UNITS = {'thread_diameter': 'm', 'mandrel_diameter': 'm', 'coil_diameter': 'm',
