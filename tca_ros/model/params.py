@@ -109,7 +109,7 @@ SCHEMA = (
        'lambda(tau) = mu2 tau^2 + mu1 tau + mu0 of eq. (11), [mu2, mu1, mu0].', length=3),
     _p('moduli.max_torsion_strain', 171.0, '1/m', 'Calibrated range of tau in eq. (11).',
        0.0, 1e5),
-    _p('moduli.fiber_modulus_floor', 0.1, '-', 'Lower bound of E_f / E_f0.', 0.0, 1.0),
+    _p('moduli.fiber_modulus_floor', 0.1, '-', 'Lower bound of E_f / E_f0.', 1e-3, 1.0),
     _p('moduli.constant', False, '-', 'Use constant E and G (no T or load dependence).'),
     # Dynamics, eq. (18)
     _p('dynamics.mass', 0.03, 'kg', 'Moving mass m at the free end.', 0.0, 1e3),
@@ -346,7 +346,23 @@ def from_flat_dict(values, source=''):
 
 
 def _check_consistency(p):
-    """Cross-parameter rules that a single range cannot express."""
+    """Cross-parameter rules that a single range cannot express.
+
+    Each rule keeps the model finite: the fiber loses heat (eq. (1) has a finite time
+    constant), the coil is wider than its fiber, creep stays within the coil's stretch.
+    """
+    _check_thermal(p)
+    if p.coil.shape == 'helix' and p.coil.radius < p.fiber.radius:
+        raise ParameterError(
+            f"parameter 'coil.radius' = {p.coil.radius:g}: must be at least fiber.radius "
+            f'({p.fiber.radius:g} m); a coil narrower than its fiber crosses its own axis')
+    stretch = p.fiber.length * (1.0 - math.sin(p.coil.pitch_angle))  # l_t - l*, eq. (26)
+    creep = p.effects.creep_compliance * p.dynamics.load
+    if creep >= stretch:
+        raise ParameterError(
+            f"parameter 'effects.creep_compliance' = {p.effects.creep_compliance:g}: creep "
+            f'C F = {creep:.3g} m under dynamics.load {p.dynamics.load:g} N must stay below '
+            f'the stretch of the coil l_t - l* = {stretch:.3g} m')
     if p.coil.contact and p.coil.shape == 'helix' and p.coil.min_pitch_angle >= p.coil.pitch_angle:
         raise ParameterError(
             f"parameter 'coil.min_pitch_angle_deg' = {math.degrees(p.coil.min_pitch_angle):g}: "
@@ -357,6 +373,22 @@ def _check_consistency(p):
         raise ParameterError(
             f"parameter 'fiber.gamma_coefficients' = {list(p.fiber.gamma_coefficients)}: "
             f'Gamma(T0) must be positive')
+
+
+def _check_thermal(p):
+    """Refuse a fiber that cannot lose heat: h c_s A_0 > 0 (or radiation), tau finite."""
+    fiber, thermal = p.fiber, p.thermal
+    area = 2.0 * math.pi * fiber.radius * fiber.length  # A_0 of eq. (1)
+    conductance = thermal.convection_coefficient * thermal.surface_factor * area
+    capacity = fiber.density * math.pi * fiber.radius ** 2 * fiber.length * fiber.specific_heat
+    # Radiation linearised at ambient also cools: h = 0 with emissivity > 0 is a fiber in vacuum.
+    kelvin = thermal.ambient_temperature + p.effects.ambient_offset + 273.15
+    conductance += 4.0 * p.effects.emissivity * 5.670374419e-8 * area * kelvin ** 3
+    if not (conductance > 0.0 and math.isfinite(capacity / conductance)):
+        raise ParameterError(
+            f"parameter 'thermal.convection_coefficient' = {thermal.convection_coefficient!r}: "
+            f'h c_s A_0 = {conductance:.3g} W/K must be positive so that eq. (1) has a finite '
+            'time constant (or effects.emissivity > 0)')
 
 
 def to_flat_dict(params):
