@@ -2,6 +2,8 @@
 
 Exit status: 0 ok, 1 a solver or fit failed, 2 bad input (one-line message on
 stderr naming the file, row, column or parameter, the value and what is allowed).
+Work is bounded before it starts: a request needing more samples or physics steps
+than ``--max-samples`` / ``--max-steps`` allow is refused with exit status 2.
 """
 import argparse
 import csv
@@ -9,64 +11,130 @@ import math
 import os
 import sys
 import time as wallclock
+import warnings
 
 import numpy as np
 
-from tca_ros.diagnosis.data import DataError, parse_number
-from tca_ros.model.params import GRAVITY, load_params, MODELS, ParameterError
+from tca_ros.diagnosis.data import clip, DataError, NUMBER, parse_number, read_text_lines
+from tca_ros.model.params import GRAVITY, load_params, MODELS, ParameterError, \
+    resolve_config, SPECS
 
 EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT = 0, 1, 2
+ABSOLUTE_ZERO_DEGC = -273.15
+# Work limits, overridable per run with --max-samples / --max-steps. The simulator
+# steps 50-100 k steps/s on one core (`tca_sim bench`), so 2e6 steps is under a minute.
+MAX_OUTPUT_SAMPLES = 1_000_000  # simulate / diagnose samples: about 50 MB of arrays
+MAX_SIM_STEPS = 2_000_000  # physics steps of one `simulate` run
+MAX_DIAGNOSE_STEPS = 1_000_000  # physics steps of one record-rate simulation in diagnose
+MAX_TEMPERATURES = 10_000  # statics rows (each a nonlinear solve, a rod shape if conical)
+MAX_CONFIG_BYTES = 1 << 20  # a params file is a few kB; refuse to parse megabytes of YAML
+MAX_POWER_W = 1e3  # profile power bound: 200x the node's default driver limit (5 W)
+MAX_LOAD_N = SPECS['dynamics.load'].high  # the params schema's dynamics.load range (N)
+MESSAGE_CHARS = 400  # an error line is cut here: never echo megabytes of input
+DIAGNOSIS_PHYSICS_HZ = 200.0  # diagnose's record-rate physics rate floor (fitting.py)
+DIAGNOSIS_FIT_HZ = 10.0  # diagnose's default fit-grid rate (fitting.FIT_RATE_HZ)
+MIN_FIT_SAMPLES = 20  # fit-grid samples a diagnosis needs (data.MIN_SAMPLES)
+CHECKED_COMMANDS = ('statics', 'simulate', 'diagnose')  # outputs checked finite, so
+# numpy's RuntimeWarnings (multi-line, on stderr) are silenced for them
 
 
 class InputError(ValueError):
     """Bad command-line input; the message is one line."""
 
 
+class CliParser(argparse.ArgumentParser):
+    """ArgumentParser whose usage errors are one line (exit status 2)."""
+
+    def error(self, message):
+        """Print ``prog: error: message`` on one line (cut) and exit with status 2."""
+        line = ' '.join(str(message).split())
+        self.exit(EXIT_BAD_INPUT, f'{self.prog}: error: {clip(line, MESSAGE_CHARS)}\n')
+
+
+def finite_float(text):
+    """Return ``text`` as a finite float (argparse type); ASCII decimals only."""
+    if not NUMBER.fullmatch(text.strip()):
+        raise argparse.ArgumentTypeError(f'{clip(text)!r} is not a finite number '
+                                         '(ASCII decimal, e.g. 2.5e-3)')
+    value = float(text)
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f'{clip(text)!r} is beyond +-1.8e308')
+    return value
+
+
+def count(text):
+    """Return ``text`` as a positive int (argparse type of the work limits)."""
+    if not text.strip().isascii() or not text.strip().isdigit() or int(text) < 1:
+        raise argparse.ArgumentTypeError(f'{clip(text)!r} is not a positive integer')
+    return int(text)
+
+
 # -- input profiles -------------------------------------------------------------------
-def read_profile(path):
+def read_profile(path, max_rows=None):
     """Return (time (s), power (W), load (N) or None) from a CSV with a header row.
 
-    Columns: ``time,power`` and optionally ``load``. Raises InputError naming the
+    Columns: ``time,power`` and optionally ``load``, each once. Power is
+    0..MAX_POWER_W, load 0..MAX_LOAD_N (tensile), times finite and increasing.
+    ``max_rows`` bounds the rows read. Raises InputError or DataError naming the
     row (1-based, header = row 1) and column of the first bad value.
     """
-    try:
-        fh = open(path, newline='', encoding='utf-8')
-    except OSError as exc:
-        raise InputError(f'{path}: cannot open ({exc.strerror})') from None
-    with fh:
-        rows = [r for r in csv.reader(fh) if r and not r[0].lstrip().startswith('#')]
-    if not rows:
+    header, data, header_row = None, {}, 0
+    for row, line in read_text_lines(path, max_rows):
+        if not line.strip() or line.lstrip().startswith('#'):
+            continue
+        try:
+            cells = next(csv.reader([line]))
+        except csv.Error as exc:
+            raise InputError(f'{path}: row {row}: not CSV ({exc})') from None
+        if header is None:
+            header, header_row = [h.strip() for h in cells], row
+            _check_profile_header(header, path, row)
+            data = {name: [] for name in header}
+            continue
+        if len(cells) != len(header):
+            raise InputError(f'{path}: row {row}: {len(cells)} fields, expected {len(header)}')
+        for name, text in zip(header, cells):
+            data[name].append(parse_number(text, path, row, name))
+            _check_profile_value(name, data[name][-1], path, row)
+    if header is None:
         raise InputError(f'{path}: empty file; expected a header row time,power[,load]')
-    header = [h.strip() for h in rows[0]]
-    for name in ('time', 'power'):
-        if name not in header:
-            raise InputError(f"{path}: row 1: missing column '{name}' "
-                             f"(found {','.join(header)}; allowed time,power,load)")
-    unknown = [h for h in header if h not in ('time', 'power', 'load')]
-    if unknown:
-        raise InputError(f"{path}: row 1: unknown column '{unknown[0]}' "
-                         '(allowed time,power,load)')
-    cols = {name: header.index(name) for name in header}
-    data = {name: [] for name in header}
-    for i, row in enumerate(rows[1:], start=2):
-        if len(row) != len(header):
-            raise InputError(f'{path}: row {i}: {len(row)} fields, expected {len(header)}')
-        for name, j in cols.items():
-            data[name].append(parse_number(row[j], path, i, name))
     if len(data['time']) < 2:
         raise InputError(f'{path}: needs at least 2 data rows, found {len(data["time"])}')
     t = np.array(data['time'])
     bad = np.nonzero(np.diff(t) <= 0.0)[0]
     if bad.size:
         i = int(bad[0]) + 1
-        raise InputError(f"{path}: row {i + 2}, column 'time': {t[i]:g} s is not after "
-                         f'{t[i - 1]:g} s (time must increase)')
+        raise InputError(f"{path}: row {header_row + i + 1}, column 'time': {t[i]:g} s is "
+                         f'not after {t[i - 1]:g} s (time must increase)')
     load = np.array(data['load']) if 'load' in data else None
-    if load is not None and np.any(load < 0.0):
-        i = int(np.nonzero(load < 0.0)[0][0])
-        raise InputError(f"{path}: row {i + 2}, column 'load': {load[i]:g} N is "
-                         'compressive; allowed >= 0 (tensile)')
     return t, np.array(data['power']), load
+
+
+def _check_profile_header(header, path, row):
+    for name in ('time', 'power'):
+        if name not in header:
+            raise InputError(f"{path}: row {row}: missing column '{name}' "
+                             f"(found {clip(','.join(header))}; allowed time,power,load)")
+    unknown = [h for h in header if h not in ('time', 'power', 'load')]
+    if unknown:
+        raise InputError(f'{path}: row {row}: unknown column {clip(unknown[0])!r} '
+                         '(allowed time,power,load)')
+    dup = [h for h in header if header.count(h) > 1]
+    if dup:
+        raise InputError(f"{path}: row {row}: column '{dup[0]}' appears twice "
+                         '(each of time,power,load at most once)')
+
+
+def _check_profile_value(name, value, path, row):
+    if name == 'load' and value < 0.0:
+        raise InputError(f"{path}: row {row}, column 'load': {value:g} N is compressive; "
+                         'allowed >= 0 (tensile)')
+    if name == 'power' and not 0.0 <= value <= MAX_POWER_W:
+        raise InputError(f"{path}: row {row}, column 'power': {value:g} W is out of range; "
+                         f'allowed 0 to {MAX_POWER_W:g} W (Joule heating)')
+    if name == 'load' and value > MAX_LOAD_N:
+        raise InputError(f"{path}: row {row}, column 'load': {value:g} N is out of range; "
+                         f'allowed 0 to {MAX_LOAD_N:g} N (dynamics.load range)')
 
 
 def resample_hold(t_in, values, t_out):
@@ -76,20 +144,60 @@ def resample_hold(t_in, values, t_out):
 
 
 # -- subcommands ---------------------------------------------------------------------
+def checked_config(name_or_path, option='--config'):
+    """Return the params file path of a config, refusing non-files and huge files."""
+    path = resolve_config(name_or_path)
+    if not os.path.isfile(path):
+        raise InputError(f'{option} = {clip(name_or_path)!r}: not a regular file')
+    size = os.path.getsize(path)
+    if size > MAX_CONFIG_BYTES:
+        raise InputError(f'{option} = {clip(name_or_path)!r}: {size} bytes; a params file '
+                         f'is at most {MAX_CONFIG_BYTES} bytes')
+    return path
+
+
 def _params(args):
     overrides = {'model': args.model} if getattr(args, 'model', None) else {}
-    return load_params(args.config, **overrides)
+    return load_params(checked_config(args.config), **overrides)
+
+
+def check_finite(columns, where, unit):
+    """Raise ValueError (exit 1) naming the first non-finite value of ``columns``.
+
+    ``columns`` maps a name to an array, ``where`` holds the row coordinates in
+    ``unit``. Output that is not finite is never printed.
+    """
+    for name, values in columns.items():
+        values = np.asarray(values, dtype=float)
+        bad = np.flatnonzero(~np.isfinite(values))
+        if bad.size:
+            raise ValueError(f'the model left its valid range: {name} is {values[bad[0]]!r} '
+                             f'at {where[bad[0]]:g} {unit}')
 
 
 def cmd_statics(args, out):
     """Print CSV temperature,displacement (degC, m) for a hanging mass."""
     from tca_ros.model.dynamics import static_displacement
-    p = _params(args)
     if args.tstep <= 0.0 or args.tmax < args.tmin:
         raise InputError(f'--tstep = {args.tstep:g}, --tmin = {args.tmin:g}, --tmax = '
                          f'{args.tmax:g}: need tstep > 0 and tmax >= tmin (degC)')
-    if args.mass is not None and not (math.isfinite(args.mass) and args.mass >= 0.0):
-        raise InputError(f'--mass = {args.mass!r}: must be a finite mass >= 0 kg')
+    if args.tmin < ABSOLUTE_ZERO_DEGC:
+        raise InputError(f'--tmin = {args.tmin:g} degC: below absolute zero '
+                         f'({ABSOLUTE_ZERO_DEGC:g} degC)')
+    rows = (args.tmax - args.tmin) / args.tstep + 1.0
+    if not rows <= args.max_samples:
+        raise InputError(f'--tmin {args.tmin:g} --tmax {args.tmax:g} --tstep {args.tstep:g} '
+                         f'give {rows:.4g} temperatures; the limit is {args.max_samples} '
+                         '(--max-samples)')
+    if args.mass is not None and not 0.0 <= args.mass * GRAVITY <= MAX_LOAD_N:
+        raise InputError(f'--mass = {args.mass:g} kg: allowed 0 to '
+                         f'{MAX_LOAD_N / GRAVITY:.4g} kg (load 0 to {MAX_LOAD_N:g} N)')
+    if args.shape:
+        folder = os.path.dirname(os.path.abspath(args.shape))
+        if not os.path.isdir(folder):
+            raise InputError(f'--shape = {clip(args.shape)!r}: directory {clip(folder)!r} '
+                             'does not exist')
+    p = _params(args)
     temps = np.arange(args.tmin, args.tmax + 0.5 * args.tstep, args.tstep)
     load = p.dynamics.load if args.mass is None else args.mass * GRAVITY
     if p.coil.shape == 'conical':
@@ -98,6 +206,7 @@ def cmd_statics(args, out):
         raise InputError(f'--shape = {args.shape!r}: only for a conical TCA '
                          f'(coil.shape: conical), this config is a {p.coil.shape}')
     disp = static_displacement(p, load, temps)
+    check_finite({'displacement': disp}, temps, 'degC')
     out.write('temperature,displacement\n')
     for temp, x in zip(temps, disp):
         out.write(f'{temp:.6g},{x:.9g}\n')
@@ -111,6 +220,7 @@ def _conical_statics(p, temps, load, args, out):
         raise InputError(f'--model = {p.model!r}: a conical TCA needs the rod model '
                          '(Love and CST assume a uniform helix)')
     shapes = conical_shapes(p, temps, load=load)
+    check_finite({'end height': [xyz[2, -1] for _, xyz in shapes]}, temps, 'degC')
     out.write('temperature,end_height\n')
     for temp, (_, xyz) in zip(temps, shapes):
         out.write(f'{temp:.6g},{xyz[2, -1]:.9g}\n')
@@ -157,15 +267,32 @@ def write_shapes(path, temps, shapes):
 def cmd_simulate(args, out):
     """Print CSV time,power,load,displacement,temperature,resistance for a profile."""
     from tca_ros.model.dynamics import simulate
+    for name, value in (('--rate', args.rate), ('--physics-rate', args.physics_rate)):
+        if not value > 0.0:
+            raise InputError(f'{name} = {value:g}: must be a positive rate in Hz')
     p = _params(args)
-    if not (math.isfinite(args.rate) and args.rate > 0.0):
-        raise InputError(f'--rate = {args.rate!r}: must be a positive rate in Hz')
-    t_in, power_in, load_in = read_profile(args.input)
-    n = int(math.floor((t_in[-1] - t_in[0]) * args.rate + 1e-9)) + 1
+    t_in, power_in, load_in = read_profile(args.input, max_rows=args.max_samples + 1000)
+    span = t_in[-1] - t_in[0]
+    samples = span * args.rate + 1.0
+    steps = span * max(args.rate, args.physics_rate)
+    if not samples <= args.max_samples:
+        raise InputError(f'{args.input}: {span:.4g} s at --rate {args.rate:g} Hz is '
+                         f'{samples:.4g} samples; the limit is {args.max_samples} '
+                         '(--max-samples)')
+    if not steps <= args.max_steps:
+        raise InputError(f'{args.input}: {span:.4g} s at --physics-rate '
+                         f'{max(args.rate, args.physics_rate):g} Hz is {steps:.4g} physics '
+                         f'steps; the limit is {args.max_steps} (--max-steps)')
+    n = int(math.floor(span * args.rate + 1e-9)) + 1
     t = t_in[0] + np.arange(n) / args.rate
+    if n > 1 and not np.all(np.diff(t) > 0.0):
+        raise InputError(f"{args.input}: column 'time': {t_in[0]:g} s is too large for "
+                         f'steps of 1/{args.rate:g} s (they vanish in rounding)')
     power = resample_hold(t_in, power_in, t)
     load = None if load_in is None else resample_hold(t_in, load_in, t)
     res = simulate(p, t, power, load, physics_rate=args.physics_rate)
+    check_finite({'displacement': res.displacement, 'temperature': res.temperature,
+                  'resistance': res.resistance}, res.time, 's')
     out.write('time,power,load,displacement,temperature,resistance\n')
     for row in zip(res.time, res.power, res.load, res.displacement, res.temperature,
                    res.resistance):
@@ -209,8 +336,33 @@ def cmd_bench(args, out):
 def cmd_diagnose(args, out):
     """Diagnose a recording; print the summary; write the report."""
     from tca_ros.diagnosis import diagnose, format_summary
+    from tca_ros.diagnosis.data import read_record, record_config
+    if args.report and os.path.exists(args.report) and not os.path.isdir(args.report):
+        raise InputError(f'--report = {clip(args.report)!r}: exists and is not a directory')
+    if args.config:
+        checked_config(args.config)
+    is_bag = os.path.isdir(args.data) or str(args.data).endswith('.mcap')
+    fit_rate = None
+    if args.config or not is_bag:  # a bag without --config is refused by diagnose
+        # read once under the limits: diagnose re-reads the same file, as large as this
+        record = read_record(args.data, max_samples=args.max_samples)
+        if not args.config:
+            checked_config(record_config(record), option="'# tca:' header")
+        physics = max(DIAGNOSIS_PHYSICS_HZ, record.sample_rate)
+        steps = record.duration * physics
+        if not steps <= args.max_steps:
+            raise InputError(f'{args.data}: {record.duration:.4g} s at {physics:.4g} Hz '
+                             f'physics is {steps:.4g} steps per simulation; the limit is '
+                             f'{args.max_steps} (--max-steps)')
+        if record.duration * DIAGNOSIS_FIT_HZ + 1.0 < MIN_FIT_SAMPLES:
+            fit_rate = record.sample_rate  # a short record is fitted at its own rate
     result = diagnose(args.data, args.config, report_dir=args.report, model=args.model,
-                      progress=not args.quiet)
+                      progress=not args.quiet, fit_rate=fit_rate)
+    for name, rmse in (('nominal', result.nominal_rmse), ('extended', result.extended_rmse)):
+        for channel, value in rmse.items():
+            if not math.isfinite(value):
+                raise ValueError(f'{args.data}: the {name} model gives a held-out '
+                                 f'{channel} RMSE of {value!r}')
     out.write(format_summary(result) + '\n')
     return EXIT_OK if result.success else EXIT_FAILED
 
@@ -230,8 +382,8 @@ def cmd_demo(args, out):
 def build_parser():
     """Return the argparse parser of `tca_sim`."""
     fmt = argparse.ArgumentDefaultsHelpFormatter
-    parser = argparse.ArgumentParser(prog='tca_sim', description=__doc__.splitlines()[0],
-                                     formatter_class=fmt)
+    parser = CliParser(prog='tca_sim', description=__doc__.splitlines()[0],
+                       formatter_class=fmt)
     sub = parser.add_subparsers(dest='command', required=True)
 
     def common(sp, model=True):
@@ -245,23 +397,29 @@ def build_parser():
     sp = sub.add_parser('statics', formatter_class=fmt,
                         help='displacement (m) vs temperature (degC) under a hanging mass')
     common(sp)
-    sp.add_argument('--mass', type=float, default=None,
+    sp.add_argument('--mass', type=finite_float, default=None,
                     help="hanging mass (kg); default: the config's dynamics.load / g")
-    sp.add_argument('--tmin', type=float, default=25.0, help='first temperature (degC)')
-    sp.add_argument('--tmax', type=float, default=160.0, help='last temperature (degC)')
-    sp.add_argument('--tstep', type=float, default=5.0, help='temperature step (K)')
+    sp.add_argument('--tmin', type=finite_float, default=25.0, help='first temperature (degC)')
+    sp.add_argument('--tmax', type=finite_float, default=160.0, help='last temperature (degC)')
+    sp.add_argument('--tstep', type=finite_float, default=5.0, help='temperature step (K)')
     sp.add_argument('--shape', default=None,
                     help='conical TCA: write the centreline CSV temperature,s,x,y,z (m) '
                          'here, and a PNG of the shapes beside it')
+    sp.add_argument('--max-samples', type=count, default=MAX_TEMPERATURES,
+                    help='refuse runs of more temperatures (limit on memory and time)')
     sp.set_defaults(func=cmd_statics)
 
     sp = sub.add_parser('simulate', formatter_class=fmt,
                         help='dynamics for a power (W) / load (N) profile CSV')
     common(sp)
     sp.add_argument('--input', required=True, help='CSV with columns time,power[,load]')
-    sp.add_argument('--rate', type=float, default=100.0, help='output sample rate (Hz)')
-    sp.add_argument('--physics-rate', type=float, default=1000.0,
+    sp.add_argument('--rate', type=finite_float, default=100.0, help='output sample rate (Hz)')
+    sp.add_argument('--physics-rate', type=finite_float, default=1000.0,
                     help='physics step rate (Hz)')
+    sp.add_argument('--max-samples', type=count, default=MAX_OUTPUT_SAMPLES,
+                    help='refuse runs of more output samples (limit on memory and time)')
+    sp.add_argument('--max-steps', type=count, default=MAX_SIM_STEPS,
+                    help='refuse runs of more physics steps per simulation (limit on time)')
     sp.set_defaults(func=cmd_simulate)
 
     sp = sub.add_parser('diagnose', formatter_class=fmt,
@@ -275,12 +433,16 @@ def build_parser():
                     help='directory (DIR) for report.md, PNG plots, diagnosis.json and '
                          'the extended params YAML')
     sp.add_argument('--quiet', action='store_true', help='no progress bar')
+    sp.add_argument('--max-samples', type=count, default=MAX_OUTPUT_SAMPLES,
+                    help='refuse runs of more record samples (limit on memory and time)')
+    sp.add_argument('--max-steps', type=count, default=MAX_DIAGNOSE_STEPS,
+                    help='refuse runs of more physics steps per simulation (limit on time)')
     sp.set_defaults(func=cmd_diagnose)
 
     sp = sub.add_parser('bench', formatter_class=fmt,
                         help='benchmark the dynamics of each model (printed figures)')
     common(sp, model=False)
-    sp.add_argument('--seconds', type=float, default=60.0, help='simulated time (s)')
+    sp.add_argument('--seconds', type=finite_float, default=60.0, help='simulated time (s)')
     sp.set_defaults(func=cmd_bench)
 
     from tca_ros.cli_config import add_parser as add_config_parser
@@ -289,7 +451,7 @@ def build_parser():
     sp = sub.add_parser('demo', formatter_class=fmt, help='the main job of `make demo`')
     common(sp, model=False)
     sp.add_argument('--out', default='out', help='output directory')
-    sp.add_argument('--seconds', type=float, default=30.0, help='closed-loop sim time (s)')
+    sp.add_argument('--seconds', type=finite_float, default=30.0, help='closed-loop sim time (s)')
     sp.add_argument('--no-node', action='store_true', help='skip the ROS closed-loop demo')
     sp.set_defaults(func=cmd_demo)
     return parser
@@ -299,17 +461,32 @@ def main(argv=None, out=None):
     """Run `tca_sim`; return the exit status."""
     out = out or sys.stdout
     args = build_parser().parse_args(argv)
+
+    def fail(status, text):
+        line = ' '.join(str(text).split()) or 'unknown error'
+        sys.stderr.write(f'tca_sim {args.command}: error: {clip(line, MESSAGE_CHARS)}\n')
+        return status
+
     try:
-        return args.func(args, out)
+        with warnings.catch_warnings():
+            if args.command in CHECKED_COMMANDS:  # outputs are checked finite instead
+                warnings.simplefilter('ignore', RuntimeWarning)
+            return args.func(args, out)
     except (InputError, DataError, ParameterError) as exc:
-        sys.stderr.write(f'tca_sim {args.command}: error: {exc}\n')
-        return EXIT_BAD_INPUT
-    except ValueError as exc:
-        first = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-        sys.stderr.write(f'tca_sim {args.command}: error: {first}\n')
-        return EXIT_FAILED
+        return fail(EXIT_BAD_INPUT, exc)
     except BrokenPipeError:
         return EXIT_OK
+    except OSError as exc:  # a path given on the command line: missing, unwritable, ...
+        where = f'{exc.filename}: ' if exc.filename else ''
+        return fail(EXIT_BAD_INPUT, f'{where}{exc.strerror or exc}')
+    except (ValueError, ArithmeticError) as exc:  # a solver or the model failed
+        first = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        return fail(EXIT_FAILED, first)
+    except MemoryError:
+        return fail(EXIT_FAILED, 'out of memory; lower --max-samples or --max-steps')
+    except Exception as exc:  # a bug: one line, not a traceback, but say so
+        return fail(EXIT_FAILED, f'internal error ({type(exc).__name__}: {exc}); please '
+                                 'report it with the command line')
 
 
 if __name__ == '__main__':
