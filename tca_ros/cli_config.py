@@ -5,7 +5,6 @@ flags to a MuscleSpec, names refused values by their flag, and writes the file w
 header listing what was given and what was derived.
 """
 import argparse
-import datetime
 import math
 import os
 
@@ -18,6 +17,14 @@ FLAGS = {'thread': '--thread', 'thread_diameter': '--thread-diameter', 'coil': '
          'mass': '--mass', 'ambient_degc': '--ambient', 'model': '--model',
          'min_pitch_angle_deg': '--min-pitch-angle', 'inserted_twist': '--inserted-twist',
          'spiral_pitch': '--spiral-pitch', 'cone_angle_deg': '--cone-angle'}
+
+#: Metavariable (the SI unit) shown in ``config new --help`` for each option.
+METAVARS = {'out': 'PATH', 'thread': 'PRESET', 'thread_diameter': 'M', 'coil': 'TYPE',
+            'mandrel_diameter': 'M', 'coil_diameter': 'M', 'outer_diameter': 'M',
+            'pitch_angle': 'DEG', 'coils': 'N', 'loaded_length': 'M', 'natural_length': 'M',
+            'resistance': 'OHM', 'mass': 'KG', 'ambient': 'DEGC', 'model': 'MODEL',
+            'min_pitch_angle': 'DEG', 'inserted_twist': 'RAD_PER_M', 'spiral_pitch': 'M',
+            'cone_angle': 'DEG'}
 
 
 def add_parser(subparsers):
@@ -76,6 +83,9 @@ def add_parser(subparsers):
                      help='conical: spiral pitch p_c (m); default 0.0106 (the paper)')
     new.add_argument('--cone-angle', type=float, default=None,
                      help='conical: full cone angle (deg); default 12 (the paper)')
+    for action in new._actions:
+        if action.dest in METAVARS:
+            action.metavar = METAVARS[action.dest]
     new.set_defaults(func=cmd_config_new)
     return sub
 
@@ -127,15 +137,14 @@ def _header(args, spec, preset, derived):
     given = [f'{FLAGS[name]} {value}' for name, value in sorted(vars(spec).items())
              if value is not None and name in FLAGS]
     lines = [
-        f'{spec.coil} TCA described by `tca_sim config new` '
-        f'({datetime.date.today().isoformat()}). ROS 2 params file, read by',
+        f'{spec.coil} TCA described by `tca_sim config new`. ROS 2 params file, read by',
         '`ros2 run tca_ros tca_node --ros-args --params-file` and by `tca_sim --config`.',
         'Units: SI; angles in degrees (*_deg), temperatures in degC (*_degc).',
         f'Thread preset {preset.name}: {preset.description}',
         '(properties and their sources: config/threads/threads.yaml; derivations:',
         'docs/describe.md).',
         '',
-        'Given:',
+        'Given (flags, or their defaults):',
     ]
     lines += [f'  {g}' for g in given]
     lines += ['', 'Derived:']
