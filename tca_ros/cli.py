@@ -21,6 +21,7 @@ from tca_ros.model.params import GRAVITY, load_params, MODELS, ParameterError, \
 
 EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT = 0, 1, 2
 ABSOLUTE_ZERO_DEGC = -273.15
+MAX_TEMPERATURE_DEGC = 1000.0  # statics bound: nylon melts near 260 degC, so far above
 # Work limits, overridable per run with --max-samples / --max-steps. The simulator
 # steps 50-100 k steps/s on one core (`tca_sim bench`), so 2e6 steps is under a minute.
 MAX_OUTPUT_SAMPLES = 1_000_000  # simulate / diagnose samples: about 50 MB of arrays
@@ -181,9 +182,9 @@ def cmd_statics(args, out):
     if args.tstep <= 0.0 or args.tmax < args.tmin:
         raise InputError(f'--tstep = {args.tstep:g}, --tmin = {args.tmin:g}, --tmax = '
                          f'{args.tmax:g}: need tstep > 0 and tmax >= tmin (degC)')
-    if args.tmin < ABSOLUTE_ZERO_DEGC:
-        raise InputError(f'--tmin = {args.tmin:g} degC: below absolute zero '
-                         f'({ABSOLUTE_ZERO_DEGC:g} degC)')
+    if args.tmin < ABSOLUTE_ZERO_DEGC or args.tmax > MAX_TEMPERATURE_DEGC:
+        raise InputError(f'--tmin = {args.tmin:g}, --tmax = {args.tmax:g} degC: allowed '
+                         f'{ABSOLUTE_ZERO_DEGC:g} to {MAX_TEMPERATURE_DEGC:g} degC')
     rows = (args.tmax - args.tmin) / args.tstep + 1.0
     if not rows <= args.max_samples:
         raise InputError(f'--tmin {args.tmin:g} --tmax {args.tmax:g} --tstep {args.tstep:g} '

@@ -117,6 +117,17 @@ def test_statics_shape_into_a_missing_directory_is_refused(tmp_path, capsys):
                    '--shape', 'does not exist')
 
 
+@pytest.mark.parametrize('args, needle', [
+    (['--tmax', '1e308', '--tstep', '1e307'], 'allowed -273.15 to 1000 degC'),
+    (['--tmin', '-300'], 'allowed -273.15 to 1000 degC'),
+    (['--mass', '1e308'], '--mass = 1e+308 kg: allowed 0 to'),
+    (['--mass', '-1'], '--mass = -1 kg: allowed 0 to'),
+    (['--tstep', 'nan'], "argument --tstep: 'nan' is not a finite number"),
+])
+def test_statics_arguments_are_checked_before_any_work(capsys, args, needle):
+    assert_refused(run(['statics', '--model', 'cst'] + args, capsys), needle)
+
+
 # -- item 8: hangs --------------------------------------------------------------------
 def test_one_bad_last_timestamp_is_refused_before_resampling(tmp_path, capsys):
     times = [0.1 * i for i in range(29)] + [1e6]
