@@ -13,6 +13,7 @@ setup(
         ('share/ament_index/resource_index/packages', ['resource/' + package_name]),
         ('share/' + package_name, ['package.xml']),
         ('share/' + package_name + '/config', glob('config/*.yaml')),
+        ('share/' + package_name + '/config/threads', glob('config/threads/*.yaml')),
     ],
     package_data={package_name: ['data/*.csv']},
     install_requires=['setuptools'],
