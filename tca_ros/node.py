@@ -9,13 +9,17 @@ at ``shape_rate``. The physics (tca_ros.model.dynamics.TcaSimulator) runs at
 ``physics_rate``. Time modes, parameters and examples: docs/node.md.
 """
 import math
+import os
+import sys
+import tempfile
 import time
 
 from builtin_interfaces.msg import Time as TimeMsg
 from geometry_msgs.msg import Point
 import numpy as np
-from rcl_interfaces.msg import FloatingPointRange, ParameterDescriptor, SetParametersResult
+from rcl_interfaces.msg import SetParametersResult
 import rclpy
+from rclpy._rclpy_pybind11 import RCLError
 from rclpy.clock import Clock, ClockType
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
@@ -27,12 +31,15 @@ from std_msgs.msg import Float64
 from std_srvs.srv import Trigger
 from visualization_msgs.msg import Marker
 
-from tca_ros.model.dynamics import StabilityError, TcaSimulator
+from tca_ros.model.dynamics import StabilityError
 from tca_ros.model.kinetostatics import fixed_coil_centreline
-from tca_ros.model.params import (
-    check_value, from_flat_dict, ParameterError, ParamSpec, SCHEMA, SPECS)
+from tca_ros.model.params import from_flat_dict, ParameterError, SCHEMA, SPECS
 from tca_ros.model.resistance import power_from_voltage
 from tca_ros.model.rod_model import centreline as rod_centreline
+from tca_ros.node_params import (  # noqa: F401  (re-exported: the node's parameter API)
+    build_simulator, check_ros_arguments, check_unknown_overrides, descriptor,
+    GuardedParameterService, NODE_SCHEMA, NODE_SPECS, physics_dt, physics_steps_per_tick,
+    READ_ONLY, REBUILD, validate_node_values)
 
 
 STATE_QOS = QoSProfile(depth=10)  # reliable: serves reliable and best-effort readers
@@ -50,120 +57,18 @@ WARN_PERIOD = 1.0  # s between repeats of a throttled warning
 _NS = 1_000_000_000
 
 
-#: Node parameters (beside the TCA SCHEMA); validated with the same check_value.
-NODE_SCHEMA = (
-    ParamSpec('physics_rate', 1000.0, 'Hz', 'Rate of the physics steps (dynamics (18), eq. (1)).',
-              1.0, 100000.0),
-    ParamSpec('publish_rate', 100.0, 'Hz', 'Rate of the state outputs (and of /clock ticks).',
-              0.1, 10000.0),
-    ParamSpec('shape_rate', 2.0, 'Hz', 'Rate of the shape Marker; 0 turns it off.', 0.0, 100.0),
-    ParamSpec('shape_points', 1000.0, '-', 'Number of points of the shape Marker.', 2.0, 100000.0),
-    ParamSpec('publish_clock', False, '-',
-              'Own the time: step at real_time_factor and publish /clock.'),
-    ParamSpec('real_time_factor', 1.0, '-',
-              'Sim seconds per wall second with publish_clock; 0 = as fast as possible.',
-              0.0, 1e6),
-    ParamSpec('lockstep', False, '-',
-              'With publish_clock: after each tick wait for one power or voltage command.'),
-    ParamSpec('lockstep_timeout', 1.0, 's', 'Wall time a lockstep tick waits for a command.',
-              1e-3, 3600.0),
-    ParamSpec('command_timeout', 0.5, 's',
-              'Power 0 after this long without a power or voltage command; 0 = never.',
-              0.0, 1e6),
-    ParamSpec('max_power', 5.0, 'W', 'Power limit of the driver; larger commands are clamped.',
-              0.0, 1e4),
-    ParamSpec('max_load', 10.0, 'N', 'Largest accepted external load; larger ones are clamped.',
-              0.0, 1e4),
-    ParamSpec('max_temperature', 180.0, 'degC', 'Overheat limit: an error log at each crossing.',
-              -50.0, 2000.0),
-    ParamSpec('melt_temperature', 250.0, 'degC',
-              'Above this the muscle breaks (tension 0, resistance inf) until reset.',
-              -50.0, 2000.0),
-    ParamSpec('frame_id', 'tca', '-', 'Frame of the temperature sensor.'),
-    ParamSpec('base_frame', 'tca_base', '-', 'Frame of the clamp, for the shape Marker.'),
-    ParamSpec('joint_name', 'tca_joint', '-', 'Joint name in joint_states.'),
-    ParamSpec('noise.displacement', 0.0, 'm', 'Std of the displacement noise.', 0.0, 1.0),
-    ParamSpec('noise.temperature', 0.0, 'K', 'Std of the temperature noise.', 0.0, 100.0),
-    ParamSpec('noise.resistance', 0.0, 'ohm', 'Std of the resistance noise.', 0.0, 1e6),
-    ParamSpec('noise.seed', 0.0, '-', 'Seed of the measurement noise.', 0.0, 2.0 ** 31 - 1),
-)
-NODE_SPECS = {s.name: s for s in NODE_SCHEMA}
-READ_ONLY = frozenset({'publish_clock'})  # the time source cannot change while running
-#: Node parameters that require a new simulator when changed.
-_REBUILD = {'physics_rate', 'publish_rate'}
-
-
-def validate_node_values(values):
-    """Return the node parameters coerced, or raise ParameterError (one line).
-
-    ``values`` maps NODE_SCHEMA names to values; cross-parameter rules included.
-    """
-    out = {name: check_value(NODE_SPECS[name], value) for name, value in values.items()}
-    if out['publish_rate'] > out['physics_rate']:
-        raise ParameterError(
-            f"parameter 'publish_rate' = {out['publish_rate']:g}: must not exceed "
-            f"physics_rate ({out['physics_rate']:g} Hz)")
-    if out['shape_rate'] > out['publish_rate']:
-        raise ParameterError(
-            f"parameter 'shape_rate' = {out['shape_rate']:g}: must not exceed "
-            f"publish_rate ({out['publish_rate']:g} Hz)")
-    if out['melt_temperature'] <= out['max_temperature']:
-        raise ParameterError(
-            f"parameter 'melt_temperature' = {out['melt_temperature']:g}: must be above "
-            f"max_temperature ({out['max_temperature']:g} degC)")
-    return out
-
-
-def physics_steps_per_tick(node_values):
-    """Return the physics steps per publish period (physics_rate / publish_rate, >= 1)."""
-    return max(1, round(node_values['physics_rate'] / node_values['publish_rate']))
-
-
-def physics_dt(node_values):
-    """Return the physics step (s): 1/physics_rate rounded to fill a publish period."""
-    return 1.0 / (node_values['publish_rate'] * physics_steps_per_tick(node_values))
-
-
-def build_simulator(params, node_values, kinetostatics=None):
-    """Return a TcaSimulator for params and node values, or raise ParameterError.
-
-    Model failures and the explicit stability limit become one-line ParameterErrors
-    naming the parameter.
-    """
-    try:
-        return TcaSimulator(params, dt=physics_dt(node_values), kinetostatics=kinetostatics)
-    except StabilityError as exc:
-        raise ParameterError(f'{exc} (physics_rate = {node_values["physics_rate"]:g} Hz)') \
-            from None
-    except (ValueError, RuntimeError) as exc:  # model range errors, a failed rod table
-        raise ParameterError(str(exc).splitlines()[0]) from None
-
-
-def _descriptor(spec, read_only=False, with_range=True):
-    """Return the ParameterDescriptor of a schema entry (unit and range in the text)."""
-    text = f'{spec.description} Unit: {spec.unit}.'
-    finite = math.isfinite(spec.low) and math.isfinite(spec.high)
-    if finite:
-        text += f' Range: [{spec.low:g}, {spec.high:g}].'
-    if spec.choices:
-        text += f' One of: {", ".join(spec.choices)}.'
-    # Dynamic typing lets a params file write 25 for 25.0; check_value does the typing.
-    d = ParameterDescriptor(description=text, dynamic_typing=True, read_only=read_only)
-    if with_range and finite and isinstance(spec.default, float):
-        d.floating_point_range = [FloatingPointRange(from_value=float(spec.low),
-                                                     to_value=float(spec.high))]
-    return d
-
-
 class TcaSimNode(Node):
     """Step the TCA model at physics_rate and publish its state at publish_rate."""
 
     def __init__(self, **kwargs):
+        kwargs['start_parameter_services'] = False  # ours refuse what rclpy cannot convert
         super().__init__('tca', **kwargs)
+        self._parameter_service = GuardedParameterService(self)
         all_specs = [(s, s.name in READ_ONLY) for s in SCHEMA + NODE_SCHEMA]
         for spec, _ in all_specs:
             self.declare_parameter(spec.name, spec.default,
-                                   _descriptor(spec, with_range=False))
+                                   descriptor(spec, with_range=False))
+        check_unknown_overrides(self)  # a misspelt name is refused, as tca_sim does
         tca_values = {s.name: self.get_parameter(s.name).value for s in SCHEMA}
         node_values = {s.name: self.get_parameter(s.name).value for s in NODE_SCHEMA}
         self._params = from_flat_dict(tca_values, source='ros parameters')
@@ -171,7 +76,7 @@ class TcaSimNode(Node):
         self._sim = build_simulator(self._params, self._cfg)
         # Ranges only now: a bad start-up value gets the schema's one-line message above.
         for spec, read_only in all_specs:
-            self.set_descriptor(spec.name, _descriptor(spec, read_only))
+            self.set_descriptor(spec.name, descriptor(spec, read_only))
         self.add_on_set_parameters_callback(self._on_set_parameters)
 
         self._rng = np.random.default_rng(int(self._cfg['noise.seed']))
@@ -181,8 +86,10 @@ class TcaSimNode(Node):
         self._load = self._params.dynamics.load
         self._power = 0.0  # W, applied in the last physics step
         self._broken = False
+        self._failure = None  # why the physics stopped (None while it runs)
         self._overheated = False
         self._frozen = None  # (displacement, velocity) when the muscle broke
+        self._last_good = (0.0, 0.0, self._sim.state.temperature)  # displ., rate, temp.
         self._steps_done = 0
         self._t0_ns = None
         self._sim_ns = 0  # node-owned time with publish_clock
@@ -273,10 +180,20 @@ class TcaSimNode(Node):
         self._steps_done += n
 
     def _on_timer(self):
-        self._catch_up()
-        self._publish_state(self._now_ns())
+        try:
+            self._catch_up()
+            self._publish_state(self._now_ns())
+        except Exception as exc:  # noqa: B902  a tick must never end the node
+            self._fail(f'{type(exc).__name__}: {exc}')
 
     def _on_clock_timer(self):
+        """Tick the node-owned clock; a failure marks the muscle broken, never raises."""
+        try:
+            self._clock_tick()
+        except Exception as exc:  # noqa: B902  a tick must never end the node
+            self._fail(f'{type(exc).__name__}: {exc}')
+
+    def _clock_tick(self):
         """Tick the node-owned clock at real_time_factor (publish_clock mode)."""
         if not self._started:
             if self._cfg['lockstep'] and not self._peers_matched():
@@ -376,27 +293,37 @@ class TcaSimNode(Node):
                     f'resistance {resistance:g} ohm is not positive: voltage drive gives '
                     'power 0 (check electrical.*)', throttle_duration_sec=WARN_PERIOD)
                 return 0.0
-            value = power_from_voltage(value, resistance)
+            power = power_from_voltage(value, resistance)
+            if power > self._cfg['max_power']:
+                self.get_logger().warning(
+                    f'voltage_cmd {value:g} V gives {power:g} W at {resistance:.4g} ohm, above '
+                    f'max_power {self._cfg["max_power"]:g} W: clamped',
+                    throttle_duration_sec=WARN_PERIOD)
+            value = power
         return min(max(value, 0.0), self._cfg['max_power'])
 
     def _advance(self, n_steps):
-        """Run n physics steps with the current command and load."""
+        """Run n physics steps with the current command and load.
+
+        A step that raises or leaves a non-finite state ends the episode: the muscle
+        is marked broken with its last finite outputs and the physics stops until
+        ~/reset or a parameter change (one error line, not one per step).
+        """
         now = self._now_ns()
         for i in range(n_steps):
+            if self._failure is not None:
+                return
             if i == 0 or self._drive[0] == 'voltage':  # V^2 / R follows R(T, x)
                 self._power = self._command_power(now)
             try:
                 state = self._sim.step(self._power, self._load)
-                diverged = not (math.isfinite(state.temperature)
-                                and math.isfinite(state.elongation))
-            except (ValueError, ArithmeticError) as exc:  # e.g. StabilityError
-                state, diverged = self._sim.state, True
-                self.get_logger().error(f'physics step failed: {exc}')
-            if diverged:
-                self.get_logger().error('the physics diverged: muscle marked broken; reset')
-                self._break(self._frozen_values(state))
-                self._sim.reset(load=self._load)
-                continue
+            except Exception as exc:  # noqa: B902  ZeroDivision, Overflow, StabilityError...
+                self._fail(f'{type(exc).__name__}: {exc}')
+                return
+            bad = _non_finite(state)
+            if bad:
+                self._fail(f'{bad} = {getattr(state, bad)!r} (non-finite state)')
+                return
             temp = state.temperature
             if temp > self._cfg['max_temperature'] and not self._overheated:
                 self._overheated = True
@@ -412,9 +339,20 @@ class TcaSimNode(Node):
                     '(tension 0, resistance inf) until ~/reset')
                 self._break(self._frozen_values(state))
 
-    @staticmethod
-    def _frozen_values(state):
-        return (state.measured_displacement, -state.velocity)
+    def _frozen_values(self, state):
+        values = (state.measured_displacement, -state.velocity)
+        return values if all(map(math.isfinite, values)) else self._last_good[:2]
+
+    def _fail(self, reason):
+        """End the episode once: log why, mark the muscle broken, stop the physics."""
+        if self._failure is not None:
+            return
+        self._failure = reason.splitlines()[0] if reason else 'unknown'
+        self.get_logger().error(
+            f'physics failed at t = {self._sim.state.time:.6g} s (power {self._power:g} W, '
+            f'load {self._load:g} N): {self._failure}; the muscle is marked broken (last '
+            'finite outputs held) until ~/reset or a parameter change')
+        self._break(self._last_good[:2])
 
     def _break(self, frozen):
         self._broken = True
@@ -422,8 +360,18 @@ class TcaSimNode(Node):
         self._power = 0.0
 
     def _reset_sim(self, temperature=None):
-        """Return to the loaded equilibrium at temperature (degC, default ambient)."""
+        """Return to the loaded equilibrium at temperature (degC, default ambient).
+
+        Raises ValueError or ArithmeticError (state unchanged) when the model has no
+        finite equilibrium there, e.g. under a load the coil cannot hold.
+        """
         self._sim.reset(load=self._load, temperature=temperature)
+        bad = _non_finite(self._sim.state)
+        if bad:
+            raise ValueError(f'{bad} = {getattr(self._sim.state, bad)!r} at the equilibrium')
+        s = self._sim.state
+        self._last_good = (s.measured_displacement, -s.velocity, s.temperature)
+        self._failure = None
         self._broken = False
         self._overheated = False
         self._frozen = None
@@ -437,16 +385,21 @@ class TcaSimNode(Node):
     def _publish_state(self, now_ns):
         """Sample the state now (stamps = physics time, ns), publish it and the shape."""
         s = self._sim.state
+        if not self._broken and _non_finite(s):  # e.g. a state set by a failed reset
+            self._fail(f'{_non_finite(s)} = {getattr(s, _non_finite(s))!r} (non-finite state)')
         if self._broken:
             displacement, rate = self._frozen
-            tension, res = 0.0, math.inf
+            tension, res = 0.0, math.inf  # documented: an open circuit
+            temperature = s.temperature if self._failure is None else self._last_good[2]
         else:
             displacement, rate = s.measured_displacement, -s.velocity
             tension, res = s.tension, s.resistance
+            temperature = s.temperature
+            self._last_good = (displacement, rate, temperature)
         # The noise is drawn whoever listens, so the outputs never depend on the readers.
         displacement += self._noise('displacement')
         res += self._noise('resistance')
-        temperature = s.temperature + self._noise('temperature')
+        temperature += self._noise('temperature')
         self._sample = (_time_msg(now_ns), displacement, rate, tension, res, temperature,
                         self._power)
         self._emit_sample()
@@ -569,9 +522,16 @@ class TcaSimNode(Node):
         self._load = load
 
     def _on_reset(self, request, response):
-        if not self._owns_time:
-            self._catch_up()
-        self._reset_sim()
+        try:
+            if not self._owns_time:
+                self._catch_up()
+            self._reset_sim()
+        except Exception as exc:  # noqa: B902  a reset request must never end the node
+            response.success = False
+            response.message = (f'reset failed: {type(exc).__name__}: {exc}'.splitlines()[0]
+                                + f' (load {self._load:g} N); the muscle stays broken')
+            self.get_logger().error(response.message, throttle_duration_sec=WARN_PERIOD)
+            return response
         self._drive = ('power', 0.0)
         self._last_command_ns = None
         self._watchdog_tripped = False
@@ -583,25 +543,49 @@ class TcaSimNode(Node):
 
     # -- parameters -------------------------------------------------------------------
     def _on_set_parameters(self, parameters):
-        """Check new values against the schema and cross-parameter rules; apply them."""
+        """Check new values against the schema and cross-parameter rules; apply them.
+
+        Never raises: an unexpected error refuses the request with its reason.
+        """
         owned = [p for p in parameters if p.name in SPECS or p.name in NODE_SPECS]
         if not owned:
             return SetParametersResult(successful=True)
+        try:
+            return self._apply_parameters(owned)
+        except Exception as exc:  # noqa: B902  a parameter request must never end the node
+            reason = f'{type(exc).__name__}: {exc}'.splitlines()[0]
+            self.get_logger().error(f'parameter change refused: {reason}',
+                                    throttle_duration_sec=WARN_PERIOD)
+            return SetParametersResult(successful=False, reason=reason)
+
+    def _apply_parameters(self, owned):
+        """Validate and apply owned parameters; return the SetParametersResult."""
         tca_values = {s.name: self.get_parameter(s.name).value for s in SCHEMA}
         node_values = dict(self._cfg)
         for p in owned:
             (tca_values if p.name in SPECS else node_values)[p.name] = p.value
         if not self._owns_time:
             self._catch_up()  # up to now with the old values
+        cfg = self._cfg
         try:
             params = from_flat_dict(tca_values, source='ros parameters')
             cfg = validate_node_values(node_values)
-            rebuild = params != self._params or any(cfg[k] != self._cfg[k] for k in _REBUILD)
+            rebuild = params != self._params or any(cfg[k] != self._cfg[k] for k in REBUILD)
             if rebuild and params == self._params:
                 # same TCA, new step: keep the whole state (set_dt keeps the old on failure)
                 self._sim.set_dt(physics_dt(cfg))
             elif rebuild:
-                sim = build_simulator(params, cfg)
+                sim = build_simulator(params, cfg, changed=[p.name for p in owned])
+                temperature = self._start_temperature()
+                try:  # the node's load and temperature, not the file's: refuse if no state
+                    sim.reset(load=self._load, temperature=temperature)
+                    if _non_finite(sim.state):
+                        raise ValueError(f'{_non_finite(sim.state)} is not finite')
+                except (ValueError, ArithmeticError) as exc:
+                    raise ParameterError(
+                        f'{str(exc).splitlines()[0]} (at the applied load {self._load:g} N, '
+                        f'{temperature if temperature is not None else "ambient"} degC)') \
+                        from None
         except StabilityError as exc:
             return SetParametersResult(
                 successful=False, reason=f'{exc} (physics_rate = {cfg["physics_rate"]:g} Hz)')
@@ -610,7 +594,6 @@ class TcaSimNode(Node):
         old_cfg, self._cfg = self._cfg, cfg
         if rebuild:
             if params != self._params:
-                temperature = self._sim.state.temperature
                 self._params, self._sim = params, sim
                 self._reset_sim(temperature)
                 self._warm_up_shape()
@@ -623,6 +606,23 @@ class TcaSimNode(Node):
             self._make_timer()
         return SetParametersResult(successful=True)
 
+    def _start_temperature(self):
+        """Return the temperature (degC) a rebuilt simulator starts at (None: ambient)."""
+        temp = self._sim.state.temperature
+        return temp if self._failure is None and math.isfinite(temp) else None
+
+
+_CHECKED = ('temperature', 'elongation', 'velocity', 'tension', 'measured_displacement',
+            'resistance')
+
+
+def _non_finite(state):
+    """Return the name of the first non-finite field of a TcaState, or ''."""
+    for name in _CHECKED:
+        if not math.isfinite(getattr(state, name)):
+            return name
+    return ''
+
 
 def _time_msg(ns):
     return TimeMsg(sec=ns // _NS, nanosec=ns % _NS)
@@ -633,14 +633,19 @@ def _point(x, y, z):
 
 
 def main(args=None):
-    """Run the ``tca`` node; return 2 on an invalid parameter (one-line error)."""
-    rclpy.init(args=args)
+    """Run the ``tca`` node; return 2 on an invalid parameter (one-line error).
+
+    Params files and ``-p`` rules are checked before rcl reads them, and rcl's own
+    refusals are cut to one line too: a bad start never prints a traceback.
+    """
     node = None
     try:
+        check_ros_arguments(sys.argv if args is None else args)
+        _init_quietly(args)
         node = TcaSimNode()
         rclpy.spin(node)
     except ParameterError as exc:
-        rclpy.logging.get_logger('tca').fatal(str(exc))
+        _fatal(str(exc))
         return 2
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
@@ -650,6 +655,37 @@ def main(args=None):
             node.destroy_node()
         rclpy.try_shutdown()
     return 0
+
+
+def _init_quietly(args):
+    """rclpy.init, with rcl's multi-line refusal turned into one ParameterError.
+
+    rcl logs 'Failed to parse global arguments' on stderr before raising; that line is
+    held back and dropped when init fails, written through when it succeeds.
+    """
+    sys.stderr.flush()
+    saved = os.dup(2)
+    with tempfile.TemporaryFile() as held:
+        os.dup2(held.fileno(), 2)
+        try:
+            rclpy.init(args=args)
+        except RCLError as exc:
+            reason = str(exc).replace('failed to initialize rcl: ', '').split(', at ')[0]
+            raise ParameterError(' '.join(reason.split())) from None
+        else:
+            held.seek(0)
+            os.write(saved, held.read())
+        finally:
+            os.dup2(saved, 2)
+            os.close(saved)
+
+
+def _fatal(message):
+    """Log one FATAL line (rclpy's format) whether or not rclpy is initialised."""
+    try:
+        rclpy.logging.get_logger('tca').fatal(message)
+    except Exception:  # noqa: B902  logging itself unavailable: plain stderr
+        print(f'[FATAL] [tca]: {message}', file=sys.stderr)
 
 
 if __name__ == '__main__':
