@@ -377,13 +377,18 @@ class SimulationResult:
 
 
 def simulate(params, time, power, load=None, model=None, physics_rate=1000.0,
-             kinetostatics=None):
+             kinetostatics=None, supply='power'):
     """Simulate a power (W) and load (N) profile; return samples at ``time`` (s).
 
     Inputs are held constant between samples (zero-order hold). The physics runs at
     ``physics_rate`` (Hz), or at the sample interval when that is finer. The state
-    starts at the loaded equilibrium at ambient under ``load[0]``.
+    starts at the loaded equilibrium at ambient under ``load[0]``. ``supply``:
+    'power' (the column is the power delivered) or 'voltage' (the column is the
+    nominal power of a constant-voltage supply set at R0, so the power applied
+    is P R0 / R(T, x), updated every physics step).
     """
+    if supply not in ('power', 'voltage'):
+        raise ValueError(f"supply = {supply!r}: must be 'power' or 'voltage'")
     time = np.asarray(time, dtype=float)
     power = np.asarray(power, dtype=float)
     load = (np.full_like(time, params.dynamics.load) if load is None
@@ -407,7 +412,13 @@ def simulate(params, time, power, load=None, model=None, physics_rate=1000.0,
         if abs(sim.dt - span / steps) > 1e-12 * sim.dt:
             sim.set_dt(span / steps)
         for _ in range(steps):
-            state = sim.step(power[i - 1], load[i - 1])
+            applied = power[i - 1]
+            if supply == 'voltage':
+                if not state.resistance > 0.0:
+                    raise ArithmeticError(f'voltage supply: resistance {state.resistance:g} '
+                                          'ohm is not positive')
+                applied = applied * params.electrical.resistance / state.resistance
+            state = sim.step(applied, load[i - 1])
         out[:, i] = _sample(state)
     return SimulationResult(time=time, power=power, load=load, displacement=out[0],
                             temperature=out[1], resistance=out[2], tension=out[3],

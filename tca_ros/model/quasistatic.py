@@ -246,17 +246,19 @@ class QuasiStaticPlant:
         self._maps[load] = (grid, y, k)
         return self._maps[load]
 
-    def simulate(self, time, power, load=None):
-        """Return the SimulationResult of a power (W) and load (N) profile at time (s)."""
+    def simulate(self, time, power, load=None, supply='power'):
+        """Return the SimulationResult of a power (W) and load (N) profile at time (s).
+
+        ``supply``: 'power' (the column is the power delivered) or 'voltage' (the
+        column is the nominal power of a constant-voltage supply set at R0:
+        P = V^2 / R(T, x) with V^2 = P_nominal R0, so the power follows the
+        resistance as the muscle heats and contracts).
+        """
         params = self.params
         time = np.asarray(time, dtype=float)
         power = np.asarray(power, dtype=float)
         load = (np.full_like(time, params.dynamics.load) if load is None
                 else np.asarray(load, dtype=float))
-        temperature = thermal_response(time, power, params)
-        actuating = actuating_temperature(time, temperature, params)
-        low = min(float(actuating.min()), self.ambient)
-        high = max(float(actuating.max()), self.ambient)
         # the load acting over [t_k, t_k+1) is load[k]; the equilibrium at t_k+1 uses it
         acting = np.concatenate(([load[0]], load[:-1]))
         distinct = np.unique(acting)
@@ -264,15 +266,16 @@ class QuasiStaticPlant:
             raise QuasiStaticUnsupported(
                 f'load takes {distinct.size} distinct values; the quasi-static reduction '
                 f'solves at most {MAX_DISTINCT_LOADS}: use dynamics.simulate')
-        y_eq = np.empty_like(time)
-        stiffness = np.empty_like(time)
-        for value in distinct:
-            grid, y_map, k_map = self.static_map(float(value), low, high)
-            sel = acting == value
-            y_eq[sel] = np.interp(actuating[sel], grid, y_map)
-            stiffness[sel] = np.interp(actuating[sel], grid, k_map)
-        grid, y_map, _ = self.static_map(float(load[0]), low, high)
-        y_ref = float(np.interp(self.ambient, grid, y_map))
+        if supply == 'voltage':
+            temperature, actuating, y_eq, stiffness = self._voltage_drive(
+                time, power, acting)
+        elif supply == 'power':
+            temperature = thermal_response(time, power, params)
+            actuating = actuating_temperature(time, temperature, params)
+            y_eq, stiffness = self._equilibria(actuating, acting, distinct)
+        else:
+            raise ValueError(f"supply = {supply!r}: must be 'power' or 'voltage'")
+        y_ref = self._reference(float(load[0]))
         elongation = _mechanical_lag(time, y_eq, stiffness, params.dynamics.damping)
         contraction = y_ref - elongation
         tension = np.where(elongation <= self.stop, np.maximum(acting, 0.0), acting)
@@ -280,24 +283,83 @@ class QuasiStaticPlant:
         if params.effects.sensor_lag > 0.0:  # the sensor starts settled
             measured = contraction[0] + first_order_response(
                 time, contraction - contraction[0], params.effects.sensor_lag, held=False)
-        loaded_length = self.kinetostatics.natural_length + y_ref
-        r = resistance(temperature, contraction, loaded_length, params.electrical,
-                       params.thermal.ambient_temperature)
+        r = resistance(temperature, contraction, self.loaded_length(float(load[0])),
+                       params.electrical, params.thermal.ambient_temperature)
         velocity = np.gradient(contraction, time) if time.size > 1 else np.zeros_like(time)
         return SimulationResult(time=time, power=power, load=load, displacement=measured,
                                 temperature=temperature, resistance=r, tension=tension,
                                 velocity=velocity, true_displacement=contraction, substeps=0)
 
+    def _reference(self, load):
+        grid, y_map, _ = self.static_map(load, self.ambient, self.ambient)
+        return float(np.interp(self.ambient, grid, y_map))
 
-def simulate_quasistatic(params, time, power, load=None, model=None, kinetostatics=None):
+    def loaded_length(self, load):
+        """Return the loaded length l* + y_ref (m) at ambient under ``load`` (N)."""
+        return self.kinetostatics.natural_length + self._reference(load)
+
+    def _equilibria(self, actuating, acting, distinct):
+        low = min(float(actuating.min()), self.ambient)
+        high = max(float(actuating.max()), self.ambient)
+        y_eq = np.empty_like(actuating)
+        stiffness = np.empty_like(actuating)
+        for value in distinct:
+            grid, y_map, k_map = self.static_map(float(value), low, high)
+            sel = acting == value
+            y_eq[sel] = np.interp(actuating[sel], grid, y_map)
+            stiffness[sel] = np.interp(actuating[sel], grid, k_map)
+        return y_eq, stiffness
+
+    def _voltage_drive(self, time, power, acting):
+        """Step eq. (1) sample by sample with P = P_nominal R0 / R(T, x) (exact per step)."""
+        p = self.params
+        e, effects = p.electrical, p.effects
+        conductance = thermal_conductance(p.fiber, p.thermal)
+        tau = heat_capacity(p.fiber) / conductance
+        nominal = delayed_input(time, fx.heating_power(
+            power, effects, p.thermal.delivered_power_ratio), effects.dead_time)
+        y_ref = self._reference(float(acting[0]))
+        length = self.kinetostatics.natural_length + y_ref
+        n = time.size
+        temp = np.full(n, self.ambient)
+        fiber = np.full(n, self.ambient)
+        y_eq = np.empty(n)
+        stiffness = np.empty(n)
+        maps = {}
+
+        def lookup(load, t_fiber):
+            entry = maps.get(load)
+            if entry is None or t_fiber > entry[0][-1] - MAP_MARGIN:
+                top = max(t_fiber + 20.0, self.ambient + 40.0)
+                entry = maps[load] = self.static_map(load, self.ambient, top)
+            grid, y_map, k_map = entry
+            return float(np.interp(t_fiber, grid, y_map)), float(np.interp(t_fiber, grid, k_map))
+
+        y_eq[0], stiffness[0] = lookup(float(acting[0]), fiber[0])
+        lag = effects.second_thermal_lag
+        for k in range(n - 1):
+            h = time[k + 1] - time[k]
+            r = resistance(temp[k], y_ref - y_eq[k], length, e, p.thermal.ambient_temperature)
+            if not r > 0.0:
+                raise ArithmeticError(f'voltage supply: resistance {r:g} ohm is not positive')
+            target = self.ambient + nominal[k] * e.resistance / r / conductance
+            temp[k + 1] = target + (temp[k] - target) * math.exp(-h / tau)
+            fiber[k + 1] = (temp[k + 1] if lag <= 0.0 else
+                            temp[k + 1] + (fiber[k] - temp[k + 1]) * math.exp(-h / lag))
+            y_eq[k + 1], stiffness[k + 1] = lookup(float(acting[k + 1]), fiber[k + 1])
+        return temp, fiber, y_eq, stiffness
+
+
+def simulate_quasistatic(params, time, power, load=None, model=None, kinetostatics=None,
+                         supply='power'):
     """Quasi-static simulation of a power (W) and load (N) profile at ``time`` (s).
 
     Same inputs and SimulationResult as ``dynamics.simulate`` (``substeps`` 0).
     The displacement reference is the loaded equilibrium at ambient under
-    ``load[0]``.
+    ``load[0]``; ``supply`` as in QuasiStaticPlant.simulate.
     """
     plant = QuasiStaticPlant(params, model=model, kinetostatics=kinetostatics)
-    return plant.simulate(time, power, load)
+    return plant.simulate(time, power, load, supply=supply)
 
 
 def _mechanical_lag(time, y_eq, stiffness, damping):

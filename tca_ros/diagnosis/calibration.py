@@ -1,0 +1,325 @@
+"""Calibrate a TCA's unmeasurable parameters on its recordings (docs/calibration.md).
+
+A maker knows the geometry, the thread and the hanging mass; the heat loss, the
+heat capacity, how strongly the fiber untwists, the stiffness of the coil, the
+damping and the power that really heats the thread when only the supply setting
+is logged must be fitted. They are fitted jointly over every record given
+(different powers and loads share one muscle), by the engine in engine.py:
+
+=========================== ======= ==================================================
+calibration parameter       unit    where it acts (params file entries it sets)
+=========================== ======= ==================================================
+thermal_time_constant       s       m_t c_p / (h c_s A_0) of eq. (1) (fiber.specific_heat)
+steady_rise                 K/W     1 / (h c_s A_0) of eq. (1) (thermal.convection_coeff.)
+actuation_gain              -       fiber.untwist_gain on eq. (4)
+stiffness_scale             -       moduli.youngs_modulus and moduli.shear_modulus
+damping                     N s/m   dynamics.damping, b_t of eq. (18)
+delivered_power_ratio       -       thermal.delivered_power_ratio (nominal power only)
+resistance                  ohm     electrical.resistance, R0 (with a resistance column)
+resistance_temperature_coef 1/K     electrical.temperature_coefficient
+resistance_strain_coef      -       electrical.strain_coefficient
+=========================== ======= ==================================================
+
+The time constant and steady rise are fitted instead of h and c_p because a
+record without temperature determines the time constant by itself while the
+rise is only known in product with the actuation gain and the delivered power.
+
+The search simulates with the quasi-static reduction (model/quasistatic.py) and
+the config's kinetostatic model; the calibrated parameters are then checked with
+the full central-difference dynamics (18) of the same model, and those are the
+figures reported.
+"""
+from dataclasses import dataclass, field
+import math
+
+import numpy as np
+
+from tca_ros.diagnosis import engine
+from tca_ros.diagnosis.fitting import Progress
+from tca_ros.model.dynamics import simulate
+from tca_ros.model.kinetostatics import static_elongation
+from tca_ros.model.quasistatic import make_statics, QuasiStaticPlant
+from tca_ros.model.thermal import heat_capacity, surface_area, thermal_conductance
+
+DEFAULT_FIT = ('thermal_time_constant', 'steady_rise', 'actuation_gain', 'stiffness_scale',
+               'damping', 'delivered_power_ratio', 'resistance',
+               'resistance_temperature_coef', 'resistance_strain_coef')
+DISPLACEMENT_SCALE_FLOOR = 1e-6  # m, residual scale floor (a good encoder's resolution)
+MIN_PHYSICS_RATE_HZ = 200.0  # Hz, full-dynamics check
+NOMINAL_LEVELS = 2  # a power column with at most this many distinct values is nominal
+
+
+class CalibrationError(ValueError):
+    """The records and the start config cannot be calibrated (one-line reason)."""
+
+
+def _priors(params, nominal_power, has_resistance, r0_measured=None, supply='power'):
+    """Return {name: engine.Parameter} around the start ``params``.
+
+    The resistance law is fitted when the records carry resistance, and its
+    coefficients also when a constant-voltage supply makes the power follow it.
+    """
+    conductance = thermal_conductance(params.fiber, params.thermal)
+    tau = heat_capacity(params.fiber) / conductance
+    e = params.electrical
+    out = [
+        engine.Parameter('thermal_time_constant', 's', tau, 0.1, 500.0, math.log(4.0),
+                         description='m_t c_p / (h c_s A_0), eq. (1)'),
+        engine.Parameter('steady_rise', 'K/W', 1.0 / conductance, 1.0, 3000.0,
+                         math.log(4.0), description='1 / (h c_s A_0), eq. (1)'),
+        engine.Parameter('actuation_gain', '-', params.fiber.untwist_gain, 0.02, 20.0,
+                         math.log(4.0), description='untwist gain on eq. (4)'),
+        engine.Parameter('stiffness_scale', '-', 1.0, 0.05, 20.0, math.log(2.0),
+                         description='E and G relative to the start config'),
+        engine.Parameter('damping', 'N s/m', max(params.dynamics.damping, 1e-3), 1e-3, 1e3,
+                         math.log(10.0), description='b_t of eq. (18)'),
+    ]
+    if nominal_power:
+        out.append(engine.Parameter(
+            'delivered_power_ratio', '-', params.thermal.delivered_power_ratio, 0.2, 5.0,
+            math.log(1.25), description='power heating the thread / logged power'))
+    if has_resistance:
+        r0 = r0_measured or e.resistance
+        out.append(engine.Parameter('resistance', 'ohm', r0, r0 / 10.0, r0 * 10.0,
+                                    math.log(1.5),
+                                    description='R0 at ambient and loaded length'))
+    if has_resistance or supply == 'voltage':
+        out += [
+            engine.Parameter('resistance_temperature_coef', '1/K', e.temperature_coefficient,
+                             -0.05, 0.05, 5e-3, log=False, description='beta_T'),
+            engine.Parameter('resistance_strain_coef', '-', e.strain_coefficient, -10.0,
+                             10.0, 1.0, log=False, description='beta_x'),
+        ]
+    return {p.name: p for p in out}
+
+
+def apply_calibration(params, values):
+    """Return ``params`` with calibration ``values`` ({name: value}) written in.
+
+    The names are those of the module docstring; absent ones keep ``params``.
+    """
+    flat = {}
+    fiber, thermal = params.fiber, params.thermal
+    tau = values.get('thermal_time_constant')
+    rise = values.get('steady_rise')
+    if tau is not None or rise is not None:
+        conductance = thermal_conductance(fiber, thermal)
+        rise = rise if rise is not None else 1.0 / conductance
+        tau = tau if tau is not None else heat_capacity(fiber) / conductance
+        conductance = 1.0 / rise
+        area = thermal.surface_factor * surface_area(fiber)
+        fiber_mass = heat_capacity(fiber) / fiber.specific_heat
+        flat['thermal.convection_coefficient'] = conductance / area
+        flat['fiber.specific_heat'] = tau * conductance / fiber_mass
+    simple = {'actuation_gain': 'fiber.untwist_gain', 'damping': 'dynamics.damping',
+              'delivered_power_ratio': 'thermal.delivered_power_ratio',
+              'resistance': 'electrical.resistance',
+              'resistance_temperature_coef': 'electrical.temperature_coefficient',
+              'resistance_strain_coef': 'electrical.strain_coefficient'}
+    for name, dotted in simple.items():
+        if name in values:
+            flat[dotted] = values[name]
+    if 'stiffness_scale' in values:
+        s = values['stiffness_scale']
+        flat['moduli.youngs_modulus'] = params.moduli.youngs_modulus * s
+        flat['moduli.shear_modulus'] = params.moduli.shear_modulus * s
+    return params.with_values(**flat) if flat else params
+
+
+def is_nominal_power(records):
+    """Return True when every record's power takes at most NOMINAL_LEVELS values (on/off)."""
+    return all(np.unique(r.power).size <= NOMINAL_LEVELS for r in records)
+
+
+def record_params(params, record):
+    """Return ``params`` with the record's hanging mass (kg) and initial load (N)."""
+    mass = float(record.meta.get('mass_kg', params.dynamics.mass))
+    return params.with_values(**{'dynamics.mass': mass, 'dynamics.load': float(record.load[0])})
+
+
+def match_loaded_length(params, length, load, model=None):
+    """Return ``params`` with l_t scaled so the loaded length at ambient is ``length`` (m).
+
+    The coil radius and pitch angle are kept: the maker's measured length fixes
+    how many coils the muscle has. A few fixed-point passes (the elongation
+    under load scales with l_t too).
+    """
+    for _ in range(6):
+        statics = make_statics(params, model)
+        current = statics.natural_length + static_elongation(
+            statics, load, params.thermal.ambient_temperature)
+        if abs(current - length) < 1e-9:
+            break
+        params = params.with_values(**{'fiber.length': params.fiber.length * length / current})
+    return params
+
+
+def peak_stroke(record):
+    """Return the record's peak contraction (m), robust to single-sample spikes."""
+    return float(max(np.percentile(record.displacement, 99.5), 1e-6))
+
+
+@dataclass
+class Calibration:
+    """Result of ``calibrate``: the calibrated params and how well they fit."""
+
+    start: object  # TcaParams
+    params: object  # TcaParams, calibrated
+    report: engine.FitReport
+    model: str
+    supply: str
+    channels: list
+    nominal_power: bool
+    records: list
+    start_nrmse: list = field(default_factory=list)  # per record, full dynamics
+    nrmse: list = field(default_factory=list)  # per record, full dynamics, calibrated
+    notes: list = field(default_factory=list)
+
+    def to_json(self):
+        """Return a JSON-ready summary."""
+        return {
+            'model': self.model, 'channels': self.channels,
+            'nominal_power': self.nominal_power,
+            'parameters': {k: v.as_dict() for k, v in self.report.estimates.items()},
+            'records': [{'source': r.source, 'nrmse_start': a, 'nrmse_calibrated': b}
+                        for r, a, b in zip(self.records, self.start_nrmse, self.nrmse)],
+            'success': self.report.success, 'message': self.report.message,
+            'simulations': self.report.nfev, 'notes': self.notes,
+        }
+
+
+def channels_of(records):
+    """Return the channels present in every record (displacement first)."""
+    out = ['displacement']
+    for c in ('temperature', 'resistance'):
+        if all(getattr(r, c) is not None for r in records):
+            out.append(c)
+    return out
+
+
+def prepare_start(params, records, model=None):
+    """Return (start params, notes): mass, load and measured header values applied.
+
+    Header ``length_m`` (loaded length at ambient, m) rescales l_t; header
+    ``resistance_ohm`` (ohm at ambient) sets R0.
+    """
+    notes = []
+    params = record_params(params, records[0])
+    lengths = [float(r.meta['length_m']) for r in records if 'length_m' in r.meta]
+    if lengths:
+        length = float(np.median(lengths))
+        params = match_loaded_length(params, length, float(records[0].load[0]), model)
+        notes.append(f'fiber.length set to {params.fiber.length:.4g} m so the loaded length '
+                     f'at ambient is the measured {length:.4g} m (header length_m)')
+    ohms = [float(r.meta['resistance_ohm']) for r in records if 'resistance_ohm' in r.meta]
+    if ohms:
+        params = params.with_values(**{'electrical.resistance': float(np.median(ohms))})
+        notes.append(f'electrical.resistance set to the measured {np.median(ohms):.4g} ohm '
+                     '(header resistance_ohm)')
+    return params, notes
+
+
+def predictor(start, model, channels, supply='power'):
+    """Return the engine's ``predict(values, records)`` for the quasi-static TCA."""
+    def predict(values, records):
+        params = apply_calibration(start, values)
+        plants = {}
+        out = []
+        for r in records:
+            mass = float(r.meta.get('mass_kg', start.dynamics.mass))
+            plant = plants.get(mass)
+            if plant is None:
+                plant = plants[mass] = QuasiStaticPlant(
+                    params.with_values(**{'dynamics.mass': mass}), model=model)
+            sim = plant.simulate(r.time, r.power, r.load, supply=supply)
+            out.append({c: getattr(sim, c) for c in channels})
+        return out
+    return predict
+
+
+def full_nrmse(params, records, model, supply='power'):
+    """Return per-record RMSE / peak stroke (-) of the full dynamics (18) with ``params``."""
+    out = []
+    for r in records:
+        p = record_params(params, r)
+        rate = max(MIN_PHYSICS_RATE_HZ, r.sample_rate)
+        sim = simulate(p, r.time, r.power, r.load, model=model, physics_rate=rate,
+                       supply=supply)
+        rmse = float(np.sqrt(np.mean((r.displacement - sim.displacement) ** 2)))
+        out.append(rmse / peak_stroke(r))
+    return out
+
+
+def calibrate(records, params, model=None, fit=None, progress=False, max_nfev=40,
+              check=True, supply='power'):
+    """Calibrate ``params`` (start TcaParams) jointly on ``records``; return a Calibration.
+
+    ``fit``: names to fit (default DEFAULT_FIT, restricted to what the records
+    can inform); ``check``: score start and result with the full dynamics (18).
+    """
+    if not records:
+        raise CalibrationError('records: none given')
+    model = model or params.model
+    if params.coil.shape != 'helix':
+        raise CalibrationError(
+            f'coil.shape = {params.coil.shape!r}: calibration needs a helical TCA '
+            '(the conical TCA has statics only)')
+    channels = channels_of(records)
+    nominal = is_nominal_power(records)
+    start, notes = prepare_start(params, records, model)
+    r0 = start.electrical.resistance
+    priors = _priors(start, nominal, 'resistance' in channels, r0, supply)
+    names = list(fit) if fit else list(DEFAULT_FIT)
+    unknown = [n for n in names if n not in DEFAULT_FIT]
+    if unknown:
+        raise CalibrationError(f'--fit {unknown[0]!r}: unknown; allowed: '
+                               + ', '.join(DEFAULT_FIT))
+    parameters = [priors[n] for n in names if n in priors]
+    if not nominal:
+        notes.append('power varies beyond on/off: taken as measured, '
+                     'delivered_power_ratio not fitted')
+    peaks = [peak_stroke(r) for r in records]
+    median_peak = float(np.median(peaks))
+    weights = [p / median_peak for p in peaks]
+    objective = engine.Objective(records, channels, predictor(start, model, channels, supply),
+                                 weights=weights)
+    bar = Progress(progress, total=(len(parameters) + 1) * 12)
+    initial = {'displacement': 0.05 * median_peak, 'temperature': 2.0,
+               'resistance': 0.01 * r0}
+    report = engine.fit(objective, parameters, initial_scale=initial,
+                        scale_floor={'displacement': DISPLACEMENT_SCALE_FLOOR},
+                        max_nfev=max_nfev, progress=bar)
+    bar.close()
+    calibrated = apply_calibration(start, report.values)
+    result = Calibration(start=start, params=calibrated, report=report, model=model,
+                         supply=supply,
+                         channels=channels, nominal_power=nominal, records=list(records),
+                         notes=notes)
+    if check:
+        result.start_nrmse = full_nrmse(start, records, model, supply)
+        result.nrmse = full_nrmse(calibrated, records, model, supply)
+    return result
+
+
+def format_summary(cal):
+    """Return the one-screen summary of a Calibration."""
+    power = 'nominal (on/off)' if cal.nominal_power else 'measured'
+    lines = [f'calibrated on {len(cal.records)} record(s), model {cal.model}, channels '
+             + ', '.join(cal.channels) + f'; power {power}, supply {cal.supply}',
+             f'{"parameter":<28s}{"start":>12s}{"calibrated":>13s}{"std err":>11s}  unit',
+             ]
+    for est in cal.report.estimates.values():
+        flag = '' if est.determined else '  (not determined: held at prior)'
+        lines.append(f'{est.name:<28s}{est.prior:>12.4g}{est.value:>13.4g}'
+                     f'{est.stderr:>11.2g}  {est.unit}{flag}')
+    if cal.nrmse:
+        lines.append('record                               nRMSE start  nRMSE calibrated')
+        for r, a, b in zip(cal.records, cal.start_nrmse, cal.nrmse):
+            name = (r.source or '?').rsplit('/', 1)[-1][-36:]
+            lines.append(f'{name:<36s}{a:>12.1%}{b:>18.1%}')
+        lines.append(f'{"median":<36s}{np.median(cal.start_nrmse):>12.1%}'
+                     f'{np.median(cal.nrmse):>18.1%}')
+    lines += [f'note: {n}' for n in cal.notes]
+    if not cal.report.success:
+        lines.append(f'warning: the fit did not converge ({cal.report.message})')
+    return '\n'.join(lines)

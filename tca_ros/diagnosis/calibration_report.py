@@ -1,0 +1,39 @@
+"""Plots of a calibration: every record, measured vs start vs calibrated (full dynamics)."""
+import math
+import os
+
+from tca_ros.diagnosis.calibration import MIN_PHYSICS_RATE_HZ, record_params
+from tca_ros.model.dynamics import simulate
+
+COLUMNS = 4  # subplots per row
+FIGURE_DPI = 100
+
+
+def write_calibration_report(cal, report_dir):
+    """Write ``records.png`` (one panel per record, mm over s); return its path."""
+    import matplotlib
+    matplotlib.use('Agg')
+    import matplotlib.pyplot as plt
+    n = len(cal.records)
+    rows = math.ceil(n / COLUMNS)
+    cols = min(n, COLUMNS)
+    fig, axes = plt.subplots(rows, cols, figsize=(4.0 * cols, 2.8 * rows), squeeze=False)
+    for ax in axes.flat[n:]:
+        ax.set_visible(False)
+    for ax, record in zip(axes.flat, cal.records):
+        rate = max(MIN_PHYSICS_RATE_HZ, record.sample_rate)
+        for params, style, label in ((cal.start, ':', 'start'), (cal.params, '-', 'calibrated')):
+            sim = simulate(record_params(params, record), record.time, record.power,
+                           record.load, model=cal.model, physics_rate=rate, supply=cal.supply)
+            ax.plot(sim.time, sim.displacement * 1e3, style, lw=1.2, label=label)
+        ax.plot(record.time, record.displacement * 1e3, 'k.', ms=2, label='measured')
+        ax.set_title(os.path.basename(record.source or '?')[-40:], fontsize=8)
+        ax.set_xlabel('time (s)')
+        ax.set_ylabel('contraction (mm)')
+        ax.grid(alpha=0.3)
+    axes.flat[0].legend(fontsize=7)
+    fig.tight_layout()
+    path = os.path.join(report_dir, 'records.png')
+    fig.savefig(path, dpi=FIGURE_DPI)
+    plt.close(fig)
+    return path
