@@ -215,9 +215,18 @@ class TcaSimulator:
         return RK4_REAL_LIMIT / rate if rate > 0.0 else math.inf
 
     def _creep_limit(self):
-        """Return the substep (s) below which explicit Euler creep decays monotonically."""
+        """Return the substep (s) below which explicit Euler creep decays monotonically.
+
+        The creep element in series with the coil (stiffness k) relaxes at the rate
+        (1 + C k) / tau_c, not 1 / tau_c: a compliant creep on a stiff coil is stiff.
+        """
         e = self.params.effects
-        return e.creep_time_constant if e.creep_compliance > 0.0 else math.inf
+        if e.creep_compliance <= 0.0:
+            return math.inf
+        s = self.state
+        k = self.kinetostatics.stiffness(max(s.elongation - s.creep, self._contact),
+                                         s.actuation_temperature)
+        return e.creep_time_constant / (1.0 + e.creep_compliance * max(k, 0.0))
 
     def substeps(self):
         """Return the number of equal substeps one step of dt needs to stay stable.
