@@ -71,6 +71,8 @@ def _mutate_rows(rng, rows, numeric_from=1):
     """Return text of ``rows`` with one or two random malformations."""
     rows = list(rows)
     for _ in range(rng.choice([1, 1, 2])):
+        if not rows:
+            break
         kind = rng.randrange(14)
         i = rng.randrange(numeric_from, len(rows)) if len(rows) > numeric_from else 0
         cells = rows[i].split(',')
