@@ -48,6 +48,8 @@ CLOCK_QOS = QoSProfile(depth=1)  # reliable writer; rclpy's clock reader is best
 SHAPE_QOS = QoSProfile(depth=1)
 
 MAX_CATCH_UP = 1.0  # s of physics run at most per callback after a stall or a clock jump
+MAX_CATCH_UP_WALL = 0.2  # s of wall time a callback may spend stepping (services must answer)
+CATCH_UP_CHUNK = 50  # physics steps between checks of that wall-time budget
 FAST_BATCH = 0.02  # s of wall time spent ticking per callback at real_time_factor 0
 FAST_PERIOD = 1e-3  # s, wall period of the tick timer in publish_clock mode, factor 0
 LOCKSTEP_POLL = 0.01  # s, wall period of that timer in lockstep (wake-ups cost ~0.1 ms)
@@ -176,7 +178,17 @@ class TcaSimNode(Node):
                 throttle_duration_sec=WARN_PERIOD)
             self._steps_done += n - limit
             n = limit
-        self._advance(n)
+        deadline = time.monotonic() + MAX_CATCH_UP_WALL
+        for start in range(0, n, CATCH_UP_CHUNK):
+            if time.monotonic() > deadline:
+                # A physics_rate this machine cannot keep up with: drop physics time
+                # rather than leave services and commands waiting behind the stepper.
+                self.get_logger().warning(
+                    f'physics {(n - start) * self._sim.dt:.3g} s behind the clock after '
+                    f'{MAX_CATCH_UP_WALL:g} s of stepping: skipped to now (lower '
+                    'physics_rate?)', throttle_duration_sec=WARN_PERIOD)
+                break
+            self._advance(min(CATCH_UP_CHUNK, n - start))
         self._steps_done += n
 
     def _on_timer(self):

@@ -215,3 +215,23 @@ def test_a_failed_reset_answers_and_a_parameter_change_recovers(tca):
     tca._advance(10)
     tca._publish_state(tca._now_ns())
     assert _sample_finite(tca)
+
+
+def test_a_physics_rate_the_machine_cannot_keep_up_with_leaves_the_node_responsive(tca):
+    """Stepping stops after MAX_CATCH_UP_WALL of wall time; the physics skips to now."""
+    import time
+    from tca_ros.node import MAX_CATCH_UP_WALL
+    real_step = tca._sim.step
+
+    def slow_step(power, load=None):
+        time.sleep(1e-3)  # 1 ms a step: 1 s of wall time for the 1 s of physics behind
+        return real_step(power, load)
+    tca._catch_up()
+    tca._sim.step = slow_step
+    tca._t0_ns -= 1_000_000_000
+    start = time.monotonic()
+    tca._catch_up()
+    assert time.monotonic() - start < MAX_CATCH_UP_WALL + 0.15
+    warnings = [m for level, m in tca.test_log.lines if level == 'warning']
+    assert any('skipped to now' in m for m in warnings), warnings
+    assert not tca._broken
