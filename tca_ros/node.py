@@ -9,9 +9,7 @@ at ``shape_rate``. The physics (tca_ros.model.dynamics.TcaSimulator) runs at
 ``physics_rate``. Time modes, parameters and examples: docs/node.md.
 """
 import math
-import os
 import sys
-import tempfile
 import time
 
 from builtin_interfaces.msg import Time as TimeMsg
@@ -19,7 +17,6 @@ from geometry_msgs.msg import Point
 import numpy as np
 from rcl_interfaces.msg import SetParametersResult
 import rclpy
-from rclpy._rclpy_pybind11 import RCLError
 from rclpy.clock import Clock, ClockType
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
@@ -38,8 +35,8 @@ from tca_ros.model.resistance import power_from_voltage
 from tca_ros.model.rod_model import centreline as rod_centreline
 from tca_ros.node_params import (  # noqa: F401  (re-exported: the node's parameter API)
     build_simulator, check_ros_arguments, check_unknown_overrides, descriptor,
-    GuardedParameterService, NODE_SCHEMA, NODE_SPECS, physics_dt, physics_steps_per_tick,
-    READ_ONLY, REBUILD, validate_node_values)
+    GuardedParameterService, init_quietly, log_fatal, NODE_SCHEMA, NODE_SPECS, physics_dt,
+    physics_steps_per_tick, READ_ONLY, REBUILD, validate_node_values)
 
 
 STATE_QOS = QoSProfile(depth=10)  # reliable: serves reliable and best-effort readers
@@ -416,7 +413,7 @@ class TcaSimNode(Node):
                         self._power)
         self._emit_sample()
         rate = self._cfg['shape_rate']
-        if rate > 0.0 and now_ns >= self._next_shape_ns and \
+        if rate > 0.0 and self._failure is None and now_ns >= self._next_shape_ns and \
                 time.monotonic() >= self._next_shape_wall and \
                 self._shape_pub.get_subscription_count():
             # At most shape_rate per sim second and per wall second: a viewer needs no
@@ -653,11 +650,11 @@ def main(args=None):
     node = None
     try:
         check_ros_arguments(sys.argv if args is None else args)
-        _init_quietly(args)
+        init_quietly(args)
         node = TcaSimNode()
         rclpy.spin(node)
     except ParameterError as exc:
-        _fatal(str(exc))
+        log_fatal(str(exc))
         return 2
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
@@ -667,37 +664,6 @@ def main(args=None):
             node.destroy_node()
         rclpy.try_shutdown()
     return 0
-
-
-def _init_quietly(args):
-    """rclpy.init, with rcl's multi-line refusal turned into one ParameterError.
-
-    rcl logs 'Failed to parse global arguments' on stderr before raising; that line is
-    held back and dropped when init fails, written through when it succeeds.
-    """
-    sys.stderr.flush()
-    saved = os.dup(2)
-    with tempfile.TemporaryFile() as held:
-        os.dup2(held.fileno(), 2)
-        try:
-            rclpy.init(args=args)
-        except RCLError as exc:
-            reason = str(exc).replace('failed to initialize rcl: ', '').split(', at ')[0]
-            raise ParameterError(' '.join(reason.split())) from None
-        else:
-            held.seek(0)
-            os.write(saved, held.read())
-        finally:
-            os.dup2(saved, 2)
-            os.close(saved)
-
-
-def _fatal(message):
-    """Log one FATAL line (rclpy's format) whether or not rclpy is initialised."""
-    try:
-        rclpy.logging.get_logger('tca').fatal(message)
-    except Exception:  # noqa: B902  logging itself unavailable: plain stderr
-        print(f'[FATAL] [tca]: {message}', file=sys.stderr)
 
 
 if __name__ == '__main__':

@@ -14,9 +14,13 @@ turns bad input into one line naming the field, the value and what is allowed:
 """
 import math
 import os
+import sys
+import tempfile
 
 from rcl_interfaces.msg import (FloatingPointRange, ParameterDescriptor, ParameterType,
                                 SetParametersResult)
+import rclpy
+from rclpy._rclpy_pybind11 import RCLError
 from rclpy.exceptions import ParameterNotDeclaredException
 from rclpy.parameter import Parameter
 from rclpy.parameter_service import ParameterService
@@ -353,3 +357,34 @@ def _yaml_kind(value):
     if isinstance(value, (bool, int, float, str)):
         return type(value)  # rcl refuses [1, 2.5]: write [1.0, 2.5]
     return None
+
+
+def init_quietly(args):
+    """rclpy.init, with rcl's multi-line refusal turned into one ParameterError.
+
+    rcl logs 'Failed to parse global arguments' on stderr before raising; that line is
+    held back and dropped when init fails, written through when it succeeds.
+    """
+    sys.stderr.flush()
+    saved = os.dup(2)
+    with tempfile.TemporaryFile() as held:
+        os.dup2(held.fileno(), 2)
+        try:
+            rclpy.init(args=args)
+        except RCLError as exc:
+            reason = str(exc).replace('failed to initialize rcl: ', '').split(', at ')[0]
+            raise ParameterError(' '.join(reason.split())) from None
+        else:
+            held.seek(0)
+            os.write(saved, held.read())
+        finally:
+            os.dup2(saved, 2)
+            os.close(saved)
+
+
+def log_fatal(message):
+    """Log one FATAL line (rclpy's format) whether or not rclpy is initialised."""
+    try:
+        rclpy.logging.get_logger('tca').fatal(message)
+    except Exception:  # noqa: B902  logging itself unavailable: plain stderr
+        print(f'[FATAL] [tca]: {message}', file=sys.stderr)
