@@ -355,7 +355,7 @@ def outcome(folder, status, wall, rss_kb, hung):
     }
 
 
-def campaign(n_cases, seed, budget, jobs, verbose):
+def campaign(n_cases, seed, budget, jobs, verbose, only=None):
     rng = random.Random(seed)
     root = tempfile.mkdtemp(prefix='fuzz_cli_')
     bags = Bags(root)
@@ -364,6 +364,8 @@ def campaign(n_cases, seed, budget, jobs, verbose):
                                                     k=max(0, n_cases - len(fixed)))
     # the issue's exact inputs first, then the random ones
     pending = list(enumerate(families))
+    if only is not None:  # rebuild one case, keep its files, print them
+        pending = [pending[only]]
     running, results = {}, []
     t_start = time.monotonic()
     while pending or running:
@@ -402,10 +404,15 @@ def campaign(n_cases, seed, budget, jobs, verbose):
                 res['identical'] = _same_record(extra['path'], bags.record)
             results.append(res)
             if verbose and (res['traceback'] or res['internal'] or hung or res['nan_ok']
-                            or res['not_one_line'] or res['long_err']):
+                            or res['not_one_line'] or res['long_err'] or res['code'] == 1):
                 print(f'case {k} {family}: {res["code"]} {argv!r:.300}\n    {res["err"]}')
-            shutil.rmtree(folder, ignore_errors=True)
-    shutil.rmtree(root, ignore_errors=True)
+            if only is None:
+                shutil.rmtree(folder, ignore_errors=True)
+            else:
+                print(f'case {k} kept in {folder}: {argv!r:.500}\n  -> {res["code"]}, '
+                      f'{res["wall"]:.1f} s: {res["err"]}')
+    if only is None:
+        shutil.rmtree(root, ignore_errors=True)
     return results, time.monotonic() - t_start, len(families) - len(results)
 
 
@@ -460,10 +467,13 @@ def main_fuzz(argv=None):
     parser.add_argument('--budget', type=float, default=1500.0,
                         help='wall-time budget (s); cases not started by then are skipped')
     parser.add_argument('--jobs', type=int, default=2, help='children at a time')
-    parser.add_argument('--verbose', action='store_true', help='print each failure')
+    parser.add_argument('--verbose', action='store_true',
+                        help='print each failure and each exit status 1')
+    parser.add_argument('--case', type=int, default=None,
+                        help='rebuild and run only this case number; keep its files')
     args = parser.parse_args(argv)
     results, wall, skipped = campaign(args.cases, args.seed, args.budget, args.jobs,
-                                      args.verbose)
+                                      args.verbose, only=args.case)
     table(results, wall, skipped)
 
 

@@ -22,11 +22,14 @@ from tca_ros.model.params import GRAVITY, load_params, MODELS, ParameterError, \
 EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT = 0, 1, 2
 ABSOLUTE_ZERO_DEGC = -273.15
 MAX_TEMPERATURE_DEGC = 1000.0  # statics bound: nylon melts near 260 degC, so far above
-# Work limits, overridable per run with --max-samples / --max-steps. The simulator
-# steps 50-100 k steps/s on one core (`tca_sim bench`), so 2e6 steps is under a minute.
+# Work limits, overridable per run with --max-samples / --max-steps. `simulate` with cst
+# ran 300 k physics steps in 10-13 s on a loaded 2-core machine (load average 3.6), so
+# its limit stays under the 30 s a caller may take for a hang. A diagnosis costs about
+# 1.3 ms per record-rate step (the shipped 240 s example at 200 Hz: 48 k steps, 63 s),
+# so its limit is about 2 to 3 minutes.
 MAX_OUTPUT_SAMPLES = 1_000_000  # simulate / diagnose samples: about 50 MB of arrays
-MAX_SIM_STEPS = 2_000_000  # physics steps of one `simulate` run
-MAX_DIAGNOSE_STEPS = 1_000_000  # physics steps of one record-rate simulation in diagnose
+MAX_SIM_STEPS = 300_000  # physics steps of one `simulate` run (5 min at 1 kHz)
+MAX_DIAGNOSE_STEPS = 100_000  # physics steps of one record-rate simulation in diagnose
 MAX_TEMPERATURES = 10_000  # statics rows (each a nonlinear solve, a rod shape if conical)
 MAX_CONFIG_BYTES = 1 << 20  # a params file is a few kB; refuse to parse megabytes of YAML
 MAX_POWER_W = 1e3  # profile power bound: 200x the node's default driver limit (5 W)
