@@ -164,3 +164,40 @@ def test_out_of_range_message_values_are_refused(tmp_path):
     with pytest.raises(DataError, match=r"row 5, column 'power_cmd': message value -1\.0 "
                                         r'is out of range \(allowed: 0 to inf W\)'):
         read_record(str(bag))
+
+
+def _with_chunk_crcs(data):
+    """Return MCAP bytes with each chunk's uncompressed_crc filled in.
+
+    rosbags writes 0 (no CRC); the mcap C++ writer of ``ros2 bag record`` stores
+    chunk CRCs by default (McapWriterOptions::noChunkCRC = false).
+    """
+    import struct
+    import zlib
+    data = bytearray(data)
+    pos = 8
+    while pos < len(data) - 8:
+        op, length = data[pos], struct.unpack_from('<Q', data, pos + 1)[0]
+        if op == 0x06:
+            c0 = pos + 9
+            clen = struct.unpack_from('<I', data, c0 + 28)[0]
+            assert bytes(data[c0 + 32:c0 + 32 + clen]) == b''  # uncompressed chunks
+            rlen = struct.unpack_from('<Q', data, c0 + 32 + clen)[0]
+            records = bytes(data[c0 + 40 + clen:c0 + 40 + clen + rlen])
+            struct.pack_into('<I', data, c0 + 24, zlib.crc32(records))
+        pos += 9 + length
+    return bytes(data)
+
+
+def test_with_chunk_crcs_a_flipped_payload_byte_is_refused(tmp_path):
+    good = _copy_bag_file(tmp_path)
+    intact = _with_chunk_crcs(good.read_bytes())
+    good.write_bytes(intact)
+    assert read_record(str(good)).time.size == N  # CRCs as stored are accepted
+    data = bytearray(intact)
+    value = np.float64(1e-4 * 17).tobytes()  # joint_states position of message 17
+    offset = bytes(data).index(value)
+    data[offset] ^= 0x01  # the lowest mantissa bit: a change of about 2e-19 m
+    good.write_bytes(bytes(data))
+    with pytest.raises(DataError, match='chunk CRC mismatch'):
+        read_record(str(good))
