@@ -297,7 +297,7 @@ def run_start_ups(rng, n, out_dir, args):
     cases = [(kind, ['--params-file', str(p)]) for kind, p in corrupt_configs(rng, n, out_dir)]
     cases += [('rule', rule) for rule in RULES]
     counts = dict(start_ups=len(cases), exit2_one_line=0, started=0, bad_exits=0,
-                  tracebacks=0)
+                  start_up_tracebacks=0)
     batch = 4
     for i in range(0, len(cases), batch):
         procs = []
@@ -312,7 +312,7 @@ def run_start_ups(rng, n, out_dir, args):
                 pass
             code = proc.stop()
             text = proc.log().strip()
-            counts['tracebacks'] += text.count('Traceback')
+            counts['start_up_tracebacks'] += text.count('Traceback')
             if code == 2 and len(text.splitlines()) == 1:
                 counts['exit2_one_line'] += 1
             elif 'tca node ready' in text and 'Traceback' not in text:
@@ -350,7 +350,7 @@ def main(argv=None):
     for key, value in counts.items():
         print(f'  {key:24s} {value}')
     failed = counts['deaths'] + counts['tracebacks'] + counts['non_finite'] \
-        + counts['multiline_reasons'] + counts['bad_exits']
+        + counts['multiline_reasons'] + counts['bad_exits'] + counts['start_up_tracebacks']
     return 1 if failed else 0
 
 

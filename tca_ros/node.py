@@ -126,7 +126,10 @@ class TcaSimNode(Node):
             self._clock_pub = self.create_publisher(ClockMsg, '/clock', CLOCK_QOS)
         self._timer = None
         self._make_timer()
-        self._reset_sim()
+        try:
+            self._reset_sim()
+        except (ValueError, ArithmeticError) as exc:  # one line at start-up, no traceback
+            raise ParameterError(str(exc).splitlines()[0]) from None
         self._warm_up_shape()
         self.get_logger().info(
             f'tca node ready: model {self._params.model}, physics {self._cfg["physics_rate"]:g} '
