@@ -146,6 +146,10 @@ SCHEMA = (
     _p('effects.second_thermal_lag', 0.0, 's',
        'Second thermal lag: time constant between the heated and the actuating fiber.',
        0.0, 300.0),
+    _p('effects.friction_force', 0.0, 'N',
+       'Friction: Coulomb (kinetic) force opposing the motion of the free end.', 0.0, 100.0),
+    _p('effects.static_friction_ratio', 1.0, '-',
+       'Friction: static over kinetic force (> 1: stick-slip jumps).', 1.0, 10.0),
 )
 
 SPECS = {s.name: s for s in SCHEMA}
@@ -273,6 +277,8 @@ class EffectParams:
     power_loss_fraction: float = 0.0
     dead_time: float = 0.0
     second_thermal_lag: float = 0.0
+    friction_force: float = 0.0
+    static_friction_ratio: float = 1.0
 
 
 @dataclass(frozen=True)
