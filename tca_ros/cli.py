@@ -15,12 +15,12 @@ import warnings
 
 import numpy as np
 
-from tca_ros.diagnosis.data import clip, DataError, NUMBER, parse_number, read_text_lines
+from tca_ros.diagnosis.data import ABSOLUTE_ZERO_DEGC, clip, DataError, MAX_LOAD_N, \
+    MAX_POWER_W, NUMBER, parse_number, read_text_lines
 from tca_ros.model.params import GRAVITY, load_params, MODELS, ParameterError, \
-    resolve_config, SPECS
+    resolve_config
 
 EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT = 0, 1, 2
-ABSOLUTE_ZERO_DEGC = -273.15
 MAX_TEMPERATURE_DEGC = 1000.0  # statics bound: nylon melts near 260 degC, so far above
 # Work limits, overridable per run with --max-samples / --max-steps. `simulate` with cst
 # ran 300 k physics steps in 10-13 s on a loaded 2-core machine (load average 3.6), so
@@ -32,8 +32,6 @@ MAX_SIM_STEPS = 300_000  # physics steps of one `simulate` run (5 min at 1 kHz)
 MAX_DIAGNOSE_STEPS = 100_000  # physics steps of one record-rate simulation in diagnose
 MAX_TEMPERATURES = 10_000  # statics rows (each a nonlinear solve, a rod shape if conical)
 MAX_CONFIG_BYTES = 1 << 20  # a params file is a few kB; refuse to parse megabytes of YAML
-MAX_POWER_W = 1e3  # profile power bound: 200x the node's default driver limit (5 W)
-MAX_LOAD_N = SPECS['dynamics.load'].high  # the params schema's dynamics.load range (N)
 MESSAGE_CHARS = 400  # an error line is cut here: never echo megabytes of input
 DIAGNOSIS_PHYSICS_HZ = 200.0  # diagnose's record-rate physics rate floor (fitting.py)
 DIAGNOSIS_FIT_HZ = 10.0  # diagnose's default fit-grid rate (fitting.FIT_RATE_HZ)

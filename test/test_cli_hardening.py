@@ -209,6 +209,17 @@ def test_a_megabyte_value_is_not_echoed(tmp_path, capsys):
     assert_refused(run(SIMULATE + [profile(tmp_path, bad)], capsys), "'yyyy", '...')
 
 
+@pytest.mark.parametrize('old, new, column', [
+    ('0.5,0.2943', '1e308,0.2943', 'power'), ('0.5,0.2943', '0.5,1e308', 'load'),
+    (',25.30', ',-300', 'temperature'),
+])
+def test_record_values_out_of_range_are_refused(tmp_path, capsys, old, new, column):
+    path = tmp_path / 'rec.csv'
+    path.write_text(pathlib.Path(record(tmp_path)).read_text().replace(old, new, 1))
+    assert_refused(run(['diagnose', str(path), '--quiet'], capsys), f'column {column!r}',
+                   'out of range (allowed')
+
+
 def test_config_that_cannot_lose_heat_never_prints_nan(tmp_path, capsys):
     text = (pathlib.Path(config_dir()) / 'free_stroke.yaml').read_text()
     assert 'convection_coefficient' in text

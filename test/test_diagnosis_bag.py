@@ -162,7 +162,7 @@ def test_out_of_range_message_values_are_refused(tmp_path):
             writer.write(power, 10**9 + i * 10**8 + 1, store.serialize_cdr(
                 Float64(data=-1.0 if i == 4 else 0.5), 'std_msgs/msg/Float64'))
     with pytest.raises(DataError, match=r"row 5, column 'power_cmd': message value -1\.0 "
-                                        r'is out of range \(allowed: 0 to inf W\)'):
+                                        r'is out of range \(allowed: 0 to 1000 W\)'):
         read_record(str(bag))
 
 

@@ -24,7 +24,7 @@ import re
 
 import numpy as np
 
-from tca_ros.model.params import GRAVITY
+from tca_ros.model.params import GRAVITY, SPECS
 
 REQUIRED_COLUMNS = ('time', 'power', 'load', 'displacement')
 OPTIONAL_COLUMNS = ('temperature', 'resistance')
@@ -45,10 +45,13 @@ BAG_TYPES = {'power': 'std_msgs/msg/Float64', 'power_cmd': 'std_msgs/msg/Float64
              'load': 'std_msgs/msg/Float64', 'displacement': 'std_msgs/msg/Float64',
              'joint_states': 'sensor_msgs/msg/JointState',
              'temperature': 'sensor_msgs/msg/Temperature'}
-# allowed message values: power is dissipated (>= 0), load is the params' dynamics.load range
-BAG_RANGES = {'power': (0.0, math.inf), 'power_cmd': (0.0, math.inf), 'load': (0.0, 1e3),
-              'temperature': (-273.15, math.inf)}
-BAG_UNITS = {'power': 'W', 'power_cmd': 'W', 'load': 'N', 'temperature': 'degC'}
+MAX_POWER_W = 1e3  # power bound: 200x the node's default driver limit (max_power 5 W)
+MAX_LOAD_N = SPECS['dynamics.load'].high  # the params schema's dynamics.load range (N)
+ABSOLUTE_ZERO_DEGC = -273.15
+# allowed values (low, high, unit): power is dissipated (>= 0), load is tensile
+VALUE_RANGES = {'power': (0.0, MAX_POWER_W, 'W'), 'power_cmd': (0.0, MAX_POWER_W, 'W'),
+                'load': (0.0, MAX_LOAD_N, 'N'), 'resistance': (0.0, math.inf, 'ohm'),
+                'temperature': (ABSOLUTE_ZERO_DEGC, math.inf, 'degC')}
 DEFAULT_JOINT = 'tca_joint'  # the node's default joint_name
 TIME, DISPLACEMENT = 'time', 'displacement'  # column names quoted in errors
 
@@ -323,12 +326,13 @@ def _check_values(data, row_numbers, path):
     if bad.size:
         raise DataError(f'{path}: row {row_numbers[bad[0] + 1]}, column {TIME!r}: '
                         f'{time[bad[0] + 1]:g} s is not after {time[bad[0]]:g} s')
-    for column, low in (('power', 0.0), ('load', 0.0), ('resistance', 0.0)):
+    for column, (low, high, unit) in VALUE_RANGES.items():
         if column in data:
-            neg = np.flatnonzero(data[column] < low)
-            if neg.size:
-                raise DataError(f'{path}: row {row_numbers[neg[0]]}, column {column!r}: '
-                                f'{data[column][neg[0]]:g} is negative (allowed >= 0)')
+            bad = np.flatnonzero((data[column] < low) | (data[column] > high))
+            if bad.size:
+                raise DataError(f'{path}: row {row_numbers[bad[0]]}, column {column!r}: '
+                                f'{data[column][bad[0]]:g} {unit} is out of range (allowed '
+                                f'{low:g} to {high:g} {unit})')
 
 
 def _check_rate(record, path, row):
@@ -549,12 +553,11 @@ def _bag_value(name, msg, joint_name, path, row):
 
 
 def _check_bag_values(name, values, path):
-    """Refuse non-finite values, negative power and loads outside the params' range."""
-    low, high = BAG_RANGES.get(name, (-math.inf, math.inf))
+    """Refuse non-finite values and values outside VALUE_RANGES."""
+    low, high, unit = VALUE_RANGES.get(name, (-math.inf, math.inf, ''))
     for row, value in enumerate(values, start=1):
         if not math.isfinite(value) or not low <= value <= high:
-            allowed = 'finite' if math.isinf(high) and math.isinf(low) else \
-                f'{low:g} to {high:g} {BAG_UNITS[name]}'
+            allowed = f'{low:g} to {high:g} {unit}'.rstrip()
             raise DataError(f'{path}: row {row}, column {name!r}: message value {value!r} '
                             f'is out of range (allowed: {allowed})')
 
