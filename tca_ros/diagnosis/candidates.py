@@ -66,6 +66,11 @@ _SPACES = {
     'effects.dead_time': (ParameterSpace('effects.dead_time', 0.0, 5.0), (0.2, 0.6, 1.5)),
     'effects.second_thermal_lag': (ParameterSpace('effects.second_thermal_lag', 0.0, 30.0),
                                    (0.5, 2.0, 6.0)),
+    # F_c / k of 0.1 N is ~4 mm on the 23 N/m free-stroke coil: beyond a recorded offset
+    'effects.friction_force': (ParameterSpace('effects.friction_force', 0.0, 0.1),
+                               (0.005, 0.02, 0.05)),
+    'effects.static_friction_ratio': (ParameterSpace('effects.static_friction_ratio',
+                                                     1.0, 3.0), (1.0, 1.5)),
 }
 CONTACT_START_FRACTIONS = (0.9, 0.75, 0.6, 0.45)  # stop at these fractions of the peak
 CONTACT_MARGIN_DEG = 0.05  # alpha_min stays this far below alpha* (validation rule)

@@ -12,7 +12,10 @@ stable for dt < 2 / omega, omega = sqrt(k / m) (k = d f_rod / d x); a step beyon
 0.9 of that limit is split into equal substeps automatically. A massless load
 (m = 0) is quasi-static: the damped first-order equation b_t x' + f_rod = F is
 stepped with backward Euler (unconditionally stable), or solved for equilibrium
-when b_t = 0 too. Coil contact (Sec. V-D1) is a hard, inelastic stop.
+when b_t = 0 too. Coil contact (Sec. V-D1) is a hard, inelastic stop. Coulomb
+friction on the free end ('friction' in effects.py) holds the end while the
+friction that keeps it at rest over a step is within the static force, and
+otherwise acts against the motion with the kinetic force (time-stepping form).
 
 The temperature (1) is updated exactly under zero-order-hold power while eq. (1)
 is linear, and by classical Runge-Kutta when radiation or nonlinear convection
@@ -68,6 +71,7 @@ class TcaState:
     power: float = 0.0  # W, electrical power input
     load: float = 0.0  # N, external tensile force
     in_contact: bool = False
+    stuck: bool = True  # the free end is held by static friction ('friction' effect)
 
 
 def central_difference_step(q, q_prev, force, mass, damping, dt):
@@ -286,7 +290,9 @@ class TcaSimulator:
                                                  p.effects)
         s.actuation_temperature = fx.play_operator(
             s.fiber_temperature, s.actuation_temperature, p.effects.hysteresis_width)
-        if mass > 0.0:
+        if p.effects.friction_force > 0.0:
+            q_next = self._friction_step(q, y_c, load, mass, damping, h)
+        elif mass > 0.0:
             q_next = central_difference_step(q, s.previous_elongation, load - s.tension,
                                              mass, damping, h)
         elif damping > 0.0:
@@ -307,6 +313,33 @@ class TcaSimulator:
         s.power, s.load = power, load
         s.tension = model.tension(s.elongation - s.creep, s.actuation_temperature, s.tension)
         self._update_outputs(s, h)
+
+    def _friction_step(self, q, y_c, load, mass, damping, h):
+        """Return q_{i+1} (m) of eq. (18) with Coulomb friction on the free end.
+
+        With mass, the central-difference step is linear in the friction force f,
+        q_{i+1} = q_free + f / (m / h^2 + b / (2 h)): the force holding the end at
+        q_i follows, and ``effects.coulomb_friction`` keeps it or slides against
+        F_k. Massless, the holding force is f_rod(q_i, T_{i+1}) - F and a sliding
+        end moves under F -+ F_k (backward Euler, or the band edge when b = 0: the
+        play operator of effects.friction_play).
+        """
+        s, e = self.state, self.params.effects
+        model = self.kinetostatics
+        temp = s.actuation_temperature
+        if mass > 0.0:
+            q_free = central_difference_step(q, s.previous_elongation, load - s.tension,
+                                             mass, damping, h)
+            inverse = mass / (h * h) + 0.5 * damping / h  # d(force) / d(q_{i+1}), N/m
+            force, s.stuck = fx.coulomb_friction(inverse * (q - q_free), s.stuck, e)
+            return q if s.stuck else q_free + force / inverse
+        holding = model.tension(max(q - y_c, self._contact), temp, s.tension) - load
+        force, s.stuck = fx.coulomb_friction(holding, s.stuck, e)
+        if s.stuck:
+            return q
+        if damping > 0.0:
+            return self._backward_euler(q, y_c, load + force, temp, damping, h)
+        return y_c + model.equilibrium_elongation(load + force, temp, guess=q - y_c)
 
     def _delayed(self, power, h):
         """Return the power (W) commanded effects.dead_time (s) ago (the drive's delay).

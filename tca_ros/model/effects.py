@@ -22,6 +22,10 @@ power_loss           power_loss_fraction (-)       heating power (1 - eta) P
 dead_time            dead_time (s)                 P_in(t) = P(t - d): the drive's delay
 second_thermal_lag   second_thermal_lag (s)        tau_2 dT_f/dt = T - T_f; T_f actuates
                                                    (core vs surface, heater vs thread)
+friction             friction_force F_k (N),       Coulomb friction on the free end:
+                     static_friction_ratio         stick while |F - f_rod| <= F_s = r F_k,
+                     r = F_s / F_k (-)             slide against F_k (Karnopp; play
+                                                   operator on y when massless)
 ==================== ============================= ===================================
 
 References
@@ -40,6 +44,15 @@ References
     (moduli falling with temperature and load).
 [6] A. Demsar, V. Bukosek, A. Kljun, "Dynamic mechanical analysis of nylon 66
     cord yarns," Fibres Text. East. Eur. 4(81), 2010 (modulus vs temperature).
+[7] D. Karnopp, "Computer simulation of stick-slip friction in mechanical
+    dynamic systems," J. Dyn. Syst. Meas. Control 107(1), 100-103, 1985.
+[8] J. J. Moreau, "Unilateral contact and dry friction in finite freedom
+    dynamics," in Nonsmooth Mechanics and Applications, CISM 302, Springer, 1988
+    (the time-stepping form: the friction that holds the end over a step is
+    found first, then limited to the Coulomb cone).
+[9] A. Jones and J. R. Davidson, "Underwater salp-inspired soft body contraction
+    with twisted coiled actuators," RoboSoft 2023 (isotonic TCA rig: a weight over
+    a pulley on an encoder; its records show 1-3 mm steps and a residual offset).
 """
 import math
 
@@ -59,6 +72,7 @@ CATALOGUE = {
     'power_loss': ('effects.power_loss_fraction',),
     'dead_time': ('effects.dead_time',),
     'second_thermal_lag': ('effects.second_thermal_lag',),
+    'friction': ('effects.friction_force', 'effects.static_friction_ratio'),
 }
 
 
@@ -135,3 +149,47 @@ def lag_filter(measured, true_value, dt, effects):
     if tau == 0.0:
         return true_value
     return true_value + (measured - true_value) * math.exp(-dt / tau)
+
+
+def coulomb_friction(holding_force, at_rest, effects):
+    """Return (friction (N), stuck) on the free end over one step, 'friction' [7, 8].
+
+    ``holding_force`` (N) is the friction force that would keep the free end at
+    rest over the step (along the elongation, stretching positive): in the
+    massless mode f_rod(y, T) - F, in the central-difference step of eq. (18)
+    also the inertia and damping of the step. Coulomb's law with stiction:
+
+        |f_hold| <= F_s = r F_k  (at rest)  or  F_k  (sliding):  stuck, f = f_hold
+        otherwise:  sliding, f = F_k sign(f_hold)  (against the motion)
+
+    F_k is ``effects.friction_force`` (N) and r ``effects.static_friction_ratio``
+    (-); ``at_rest`` (bool) is whether the end was stuck at the previous step.
+    Setting the velocity to zero whenever the kinetic force can stop the end
+    within the step is Karnopp's stick band [7] in the time-stepping form [8]: it
+    neither chatters nor limits the explicit step. r > 1 gives stick-slip jumps
+    of about (r - 1) F_k / k (k the axial stiffness, N/m; twice that with inertia).
+    """
+    kinetic = effects.friction_force
+    limit = kinetic * effects.static_friction_ratio if at_rest else kinetic
+    if abs(holding_force) <= limit:
+        return holding_force, True
+    return math.copysign(kinetic, holding_force), False
+
+
+def friction_play(elongation, static_band, kinetic_band):
+    """Return the elongation (m) of the massless end after its band moved, 'friction'.
+
+    The play operator of Coulomb friction on the elongation y (m): the end stays
+    at y while y_eq(F - F_s, T) <= y <= y_eq(F + F_s, T), y_eq the static
+    equilibrium under the load F (N) and F_s the static friction (N); outside it
+    slips to the kinetic band edge y_eq(F -+ F_k, T) on the same side. The
+    bands are (lower, upper) pairs of elongations (m, floats); with
+    r = 1 they are equal and this is the play (backlash) operator of [3] on y.
+    """
+    low_s, high_s = static_band
+    low_k, high_k = kinetic_band
+    if elongation > high_s:
+        return high_k
+    if elongation < low_s:
+        return low_k
+    return elongation
