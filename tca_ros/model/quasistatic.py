@@ -16,7 +16,9 @@ many records fast. ``simulate_quasistatic`` returns the same SimulationResult as
 ``dynamics.simulate``; the test suite measures the difference between the two.
 
 Supported extensions: the linear thermal ones (power loss, ambient offset), the
-sensor lag, dead time of the drive and a second thermal lag. Effects that make
+sensor lag, dead time of the drive, a second thermal lag and Coulomb friction on
+the free end (a play operator on the elongation between the static maps at
+F -+ F_c, each edge behind the mechanical lag). Effects that make
 the response history-dependent (creep, hysteresis) or eq. (1) nonlinear
 (radiation, nonlinear convection) raise ``QuasiStaticUnsupported``: use
 ``dynamics.simulate`` for those.
@@ -277,8 +279,16 @@ class QuasiStaticPlant:
             raise ValueError(f"supply = {supply!r}: must be 'power' or 'voltage'")
         y_ref = self._reference(float(load[0]))
         elongation = _mechanical_lag(time, y_eq, stiffness, params.dynamics.damping)
+        tension = acting
+        if params.effects.friction_force > 0.0:
+            edges = [_mechanical_lag(time, *self._equilibria(actuating, acting + offset,
+                                                             distinct + offset),
+                                     params.dynamics.damping)
+                     for offset in self._friction_offsets()]
+            elongation, tension = _friction_response(elongation[0], acting, edges,
+                                                     self._friction_offsets()[0])
         contraction = y_ref - elongation
-        tension = np.where(elongation <= self.stop, np.maximum(acting, 0.0), acting)
+        tension = np.where(elongation <= self.stop, np.maximum(tension, 0.0), tension)
         measured = contraction
         if params.effects.sensor_lag > 0.0:  # the sensor starts settled
             measured = contraction[0] + first_order_response(
@@ -297,6 +307,12 @@ class QuasiStaticPlant:
     def loaded_length(self, load):
         """Return the loaded length l* + y_ref (m) at ambient under ``load`` (N)."""
         return self.kinetostatics.natural_length + self._reference(load)
+
+    def _friction_offsets(self):
+        """Return the load offsets (N) of the band edges: -F_s, F_s, -F_k, F_k."""
+        e = self.params.effects
+        static = e.friction_force * e.static_friction_ratio
+        return (-static, static, -e.friction_force, e.friction_force)
 
     def _equilibria(self, actuating, acting, distinct):
         low = min(float(actuating.min()), self.ambient)
@@ -337,9 +353,14 @@ class QuasiStaticPlant:
 
         y_eq[0], stiffness[0] = lookup(float(acting[0]), fiber[0])
         lag = effects.second_thermal_lag
+        friction = effects.friction_force > 0.0
+        offsets = self._friction_offsets()
+        position = y_eq[0]  # m, the end with friction (no mechanical lag), for R(T, x)
         for k in range(n - 1):
             h = time[k + 1] - time[k]
-            r = resistance(temp[k], y_ref - y_eq[k], length, e, p.thermal.ambient_temperature)
+            if not friction:
+                position = y_eq[k]
+            r = resistance(temp[k], y_ref - position, length, e, p.thermal.ambient_temperature)
             if not r > 0.0:
                 raise ArithmeticError(f'voltage supply: resistance {r:g} ohm is not positive')
             target = self.ambient + nominal[k] * e.resistance / r / conductance
@@ -347,6 +368,10 @@ class QuasiStaticPlant:
             fiber[k + 1] = (temp[k + 1] if lag <= 0.0 else
                             temp[k + 1] + (fiber[k] - temp[k + 1]) * math.exp(-h / lag))
             y_eq[k + 1], stiffness[k + 1] = lookup(float(acting[k + 1]), fiber[k + 1])
+            if friction:
+                band = [lookup(float(acting[k + 1]) + offset, fiber[k + 1])[0]
+                        for offset in offsets]
+                position = fx.friction_play(position, band[:2], band[2:])
         return temp, fiber, y_eq, stiffness
 
 
@@ -360,6 +385,25 @@ def simulate_quasistatic(params, time, power, load=None, model=None, kinetostati
     """
     plant = QuasiStaticPlant(params, model=model, kinetostatics=kinetostatics)
     return plant.simulate(time, power, load, supply=supply)
+
+
+def _friction_response(start, acting, edges, static_offset):
+    """Return (y (m), f_rod (N)) of the end under Coulomb friction, 'friction'.
+
+    ``edges`` are the lagged equilibria (m) at F - F_s, F + F_s, F - F_k, F + F_k
+    per sample; y starts at ``start`` (m) and follows effects.friction_play. The
+    tension f_rod = F + f is interpolated linearly in y across the static band
+    (F -+ F_s at its edges, ``static_offset`` = -F_s in N).
+    """
+    low_s, high_s, low_k, high_k = edges
+    y = np.empty_like(low_s)
+    position = start
+    for k in range(y.size):
+        position = fx.friction_play(position, (low_s[k], high_s[k]), (low_k[k], high_k[k]))
+        y[k] = position
+    width = np.maximum(high_s - low_s, 1e-15)
+    fraction = np.clip((y - low_s) / width, 0.0, 1.0)
+    return y, acting + static_offset * (1.0 - 2.0 * fraction)
 
 
 def _mechanical_lag(time, y_eq, stiffness, damping):
