@@ -16,7 +16,8 @@ def _step_profile(rate, power=1.0):
 @pytest.mark.parametrize('model', ['cst', 'rod'])
 @pytest.mark.parametrize('effect', [{}, {'effects.dead_time': 1.0},
                                     {'effects.second_thermal_lag': 3.0},
-                                    {'effects.sensor_lag': 0.5}])
+                                    {'effects.sensor_lag': 0.5},
+                                    {'effects.friction_force': 0.02}])
 def test_quasistatic_equals_full_dynamics_at_5hz(model, effect):
     mass = 0.01
     p = load_params('free_stroke').with_values(**{'dynamics.mass': mass,
@@ -55,3 +56,19 @@ def test_history_dependent_effects_are_refused():
     t, power = _step_profile(5.0)
     with pytest.raises(QuasiStaticUnsupported, match='hysteresis'):
         simulate_quasistatic(p, t, power)
+
+
+def test_voltage_supply_follows_the_resistance_like_the_full_dynamics():
+    # a constant-voltage supply set to 1 W at R0: R falls as the coil contracts
+    # (beta_x = -1), so the delivered power and the stroke grow beyond the 1 W ones
+    p = load_params('free_stroke').with_values(**{
+        'dynamics.mass': 0.01, 'dynamics.load': 0.0981, 'electrical.strain_coefficient': -1.0})
+    t, power = _step_profile(5.0)
+    full = simulate(p, t, power, model='cst', physics_rate=1000.0, supply='voltage')
+    fast = simulate_quasistatic(p, t, power, model='cst', supply='voltage')
+    constant = simulate_quasistatic(p, t, power, model='cst')
+    stroke = full.displacement.max()
+    assert stroke > 1.5 * constant.displacement.max()
+    assert np.sqrt(np.mean((full.displacement - fast.displacement) ** 2)) < 0.005 * stroke
+    with pytest.raises(ValueError, match='supply'):
+        simulate_quasistatic(p, t, power, supply='current')

@@ -219,8 +219,12 @@ def prepare_start(params, records, model=None):
     return params, notes
 
 
-def predictor(start, model, channels, supply='power'):
-    """Return the engine's ``predict(values, records)`` for the quasi-static TCA."""
+def predictor(start, model, channels, supply='power', corrections=None):
+    """Return the engine's ``predict(values, records)`` for the quasi-static TCA.
+
+    ``corrections``: per record {channel: array} added to the quasi-static
+    prediction (the defect correction towards the full dynamics).
+    """
     def predict(values, records):
         params = apply_calibration(start, values)
         plants = {}
@@ -233,8 +237,28 @@ def predictor(start, model, channels, supply='power'):
                     params.with_values(**{'dynamics.mass': mass}), model=model)
             sim = plant.simulate(r.time, r.power, r.load, supply=supply)
             out.append({c: getattr(sim, c) for c in channels})
+        if corrections is not None:
+            out = [{c: p[c] + d[c] for c in channels} for p, d in zip(out, corrections)]
         return out
     return predict
+
+
+def full_predictions(params, records, model, channels, supply='power'):
+    """Return per record {channel: array} of the full dynamics (18) with ``params``."""
+    out = []
+    for r in records:
+        rate = max(MIN_PHYSICS_RATE_HZ, r.sample_rate)
+        sim = simulate(record_params(params, r), r.time, r.power, r.load, model=model,
+                       physics_rate=rate, supply=supply)
+        out.append({c: getattr(sim, c) for c in channels})
+    return out
+
+
+def defect_corrections(params, records, model, channels, supply='power'):
+    """Return per record {channel: full dynamics - quasi-static} at ``params``."""
+    full = full_predictions(params, records, model, channels, supply)
+    fast = predictor(params, model, channels, supply)({}, records)
+    return [{c: f[c] - q[c] for c in channels} for f, q in zip(full, fast)]
 
 
 def full_nrmse(params, records, model, supply='power'):
@@ -283,12 +307,20 @@ def calibrate(records, params, model=None, fit=None, progress=False, max_nfev=40
     weights = [p / median_peak for p in peaks]
     objective = engine.Objective(records, channels, predictor(start, model, channels, supply),
                                  weights=weights)
-    bar = Progress(progress, total=(len(parameters) + 1) * 12)
+    bar = Progress(progress, total=(len(parameters) + 1) * 24)
     initial = {'displacement': 0.05 * median_peak, 'temperature': 2.0,
                'resistance': 0.01 * r0}
-    report = engine.fit(objective, parameters, initial_scale=initial,
-                        scale_floor={'displacement': DISPLACEMENT_SCALE_FLOOR},
-                        max_nfev=max_nfev, progress=bar)
+    options = dict(initial_scale=initial, max_nfev=max_nfev, progress=bar,
+                   scale_floor={'displacement': DISPLACEMENT_SCALE_FLOOR})
+    report = engine.fit(objective, parameters, **options)
+    # defect correction: refit with the full dynamics' difference at the estimate
+    # added, so the result fits the model the user runs, not its reduction
+    corrections = defect_corrections(apply_calibration(start, report.values), records,
+                                     model, channels, supply)
+    objective = engine.Objective(records, channels,
+                                 predictor(start, model, channels, supply, corrections),
+                                 weights=weights)
+    report = engine.fit(objective, parameters, start=report.values, **options)
     bar.close()
     calibrated = apply_calibration(start, report.values)
     result = Calibration(start=start, params=calibrated, report=report, model=model,

@@ -177,12 +177,13 @@ def _autocorrelation_factor(raw, objective):
 
 
 def fit(objective, parameters, fixed=None, initial_scale=None, scale_floor=None,
-        max_nfev=60, progress=None):
+        max_nfev=60, progress=None, start=None):
     """Fit ``parameters`` (list of Parameter) to ``objective``; return a FitReport.
 
     ``fixed``: {name: value} held constant (not fitted, passed to predict).
     ``initial_scale``: {channel: residual scale} of the first pass.
     ``scale_floor``: {channel: smallest residual scale} (sensor resolution).
+    ``start``: {name: value} to start from (default the priors).
     """
     fixed = dict(fixed or {})
     scale_floor = dict(scale_floor or {})
@@ -190,7 +191,8 @@ def fit(objective, parameters, fixed=None, initial_scale=None, scale_floor=None,
     scale = dict(initial_scale or {c: 1.0 for c in objective.channels})
     undetermined = {}
     factor, n_eff = 1.0, float(objective.size())
-    z = np.array([p.to_fit(p.prior) for p in free])
+    start = start or {}
+    z = np.array([p.to_fit(start.get(p.name, p.prior)) for p in free])
     sol = None
     passes = REWEIGHT_PASSES
     while True:
@@ -203,7 +205,9 @@ def fit(objective, parameters, fixed=None, initial_scale=None, scale_floor=None,
             scale = _channel_scale(raw, objective, scale_floor)
             factor, n_eff = _autocorrelation_factor(raw, objective)
         passes = 1
-        cov = _covariance(sol.jac)
+        # scipy's trf returns a bound-scaled Jacobian: take a plain one for the covariance
+        cov = _covariance(_jacobian(_residual_function(objective, free, fixed, scale, factor,
+                                                       progress), z, free))
         ratios = [math.sqrt(max(cov[i, i], 0.0)) / p.spread for i, p in enumerate(free)]
         worst = int(np.argmax(ratios))
         if ratios[worst] <= IDENTIFIABLE_RATIO:
@@ -219,30 +223,51 @@ def fit(objective, parameters, fixed=None, initial_scale=None, scale_floor=None,
             break
     values = _values(free, z, fixed)
     raw = objective.raw_residuals(values)
-    cov = _covariance(sol.jac) if free else np.zeros((0, 0))
+    # standard errors from the posterior of every parameter (held ones with their
+    # prior), so a value fitted while another was held at an uncertain prior
+    # carries that uncertainty too
+    user_fixed = {k: v for k, v in fixed.items() if k not in undetermined}
+    everything = [p for p in parameters if p.name not in user_fixed]
+    z_all = np.array([p.to_fit(values[p.name]) for p in everything])
+    jac = _jacobian(_residual_function(objective, everything, user_fixed, scale, factor,
+                                       progress), z_all, everything)
+    cov = _covariance(jac)
     estimates = {}
-    for i, p in enumerate(free):
+    for i, p in enumerate(everything):
         sd = math.sqrt(max(cov[i, i], 0.0))
-        value = p.from_fit(z[i])
+        value = values[p.name]
         stderr = value * sd if p.log else sd
-        estimates[p.name] = Estimate(p.name, p.unit, value, stderr, p.prior, True)
-    for p in parameters:
         if p.name in undetermined:
-            stderr = p.prior * p.spread if p.log else p.spread
             estimates[p.name] = Estimate(
-                p.name, p.unit, p.prior, stderr, p.prior, False,
+                p.name, p.unit, value, stderr, p.prior, False,
                 f'not determined by the records (posterior/prior spread '
                 f'{undetermined[p.name]:.2f}); held at its prior')
-    estimates = {p.name: estimates[p.name] for p in parameters}
+        else:
+            estimates[p.name] = Estimate(p.name, p.unit, value, stderr, p.prior, True)
+    estimates = {p.name: estimates[p.name] for p in everything}
     record_rmse = ([{c: float(np.sqrt(np.mean(r[c] ** 2))) for c in objective.channels}
                     for r in raw] if raw is not None else [])
-    sd = np.sqrt(np.clip(np.diag(cov), 1e-300, None)) if free else np.ones(0)
-    corr = cov / np.outer(sd, sd) if free else cov
+    sd = np.sqrt(np.clip(np.diag(cov), 1e-300, None))
+    corr = cov / np.outer(sd, sd)
     return FitReport(estimates=estimates, values=values,
                      success=bool(sol is not None and sol.status > 0 and raw is not None),
                      message=sol.message if sol is not None else 'nothing to fit',
                      nfev=objective.nfev, channel_scale=scale, record_rmse=record_rmse,
                      n_samples=objective.size(), n_effective=n_eff, correlation=corr)
+
+
+def _jacobian(fun, z, parameters):
+    """Return the forward-difference Jacobian of ``fun`` at ``z`` (steps inside the bounds)."""
+    f0 = fun(z)
+    jac = np.empty((f0.size, z.size))
+    for i, p in enumerate(parameters):
+        h = DIFF_STEP * max(1.0, abs(z[i]))
+        if z[i] + h > p.fit_bounds()[1]:
+            h = -h
+        zi = z.copy()
+        zi[i] += h
+        jac[:, i] = (fun(zi) - f0) / h
+    return jac
 
 
 def _values(free, z, fixed):
@@ -251,7 +276,8 @@ def _values(free, z, fixed):
     return values
 
 
-def _solve(objective, free, fixed, z0, scale, factor, max_nfev, progress):
+def _residual_function(objective, free, fixed, scale, factor, progress):
+    """Return fun(z): the stacked data (noise units) and prior residuals."""
     prior_z = np.array([p.to_fit(p.prior) for p in free])
     spread = np.array([p.spread for p in free])
     n_data = objective.size()
@@ -263,7 +289,11 @@ def _solve(objective, free, fixed, z0, scale, factor, max_nfev, progress):
         data = (np.full(n_data, FAILED_RESIDUAL) if raw is None
                 else _stack(raw, objective, scale, factor))
         return np.concatenate((data, (z - prior_z) / spread))
+    return fun
 
+
+def _solve(objective, free, fixed, z0, scale, factor, max_nfev, progress):
+    fun = _residual_function(objective, free, fixed, scale, factor, progress)
     low, high = zip(*(p.fit_bounds() for p in free))
     z0 = np.clip(z0, np.array(low) + 1e-12, np.array(high) - 1e-12)
     return least_squares(fun, z0, bounds=(np.array(low), np.array(high)), method='trf',

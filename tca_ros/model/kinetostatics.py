@@ -167,6 +167,27 @@ class KinetostaticModel:
         return y
 
 
+    def loaded_equilibrium(self, load, temperature, guess=None):
+        """Return y (m) with f_rod(y, T) = load (N), the moduli taken at F = load.
+
+        At equilibrium the tension equals the load, so eq. (11) is evaluated at
+        the load itself and no fixed point on F is needed: a secant solve on y
+        alone (what the quasi-static reduction calls on every temperature).
+        Coil contact not applied.
+        """
+        y0 = 0.0 if guess is None else guess
+        g0 = self._tension_at(y0, temperature, load) - load
+        y1 = y0 + 1e-6 * self.params.fiber.length
+        for _ in range(60):
+            g1 = self._tension_at(y1, temperature, load) - load
+            if abs(y1 - y0) < 1e-13 or g1 == g0:
+                break
+            y0, y1, g0 = y1, y1 - g1 * (y1 - y0) / (g1 - g0), g1
+        if not math.isfinite(y1):
+            return self.equilibrium_elongation(load, temperature, guess)
+        return y1
+
+
 class LoveModel(KinetostaticModel):
     """Love's equation with rod bending and torsion, Eqs. (19)-(27)."""
 

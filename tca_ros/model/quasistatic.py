@@ -23,22 +23,27 @@ the response history-dependent (creep, hysteresis) or eq. (1) nonlinear
 (radiation, nonlinear convection) raise ``QuasiStaticUnsupported``: use
 ``dynamics.simulate`` for those.
 """
+import collections
 import math
 
 import numpy as np
+from scipy.interpolate import CubicSpline
 from scipy.signal import lfilter
 
 from tca_ros.model import effects as fx
 from tca_ros.model.dynamics import SimulationResult
 from tca_ros.model.kinetostatics import contact_elongation, make_kinetostatic_model
 from tca_ros.model.resistance import resistance
-from tca_ros.model.rod_model import helix_elongation
+from tca_ros.model.rod_model import helix_elongation, mechanical_params
 from tca_ros.model.thermal import heat_capacity, thermal_conductance
 
 MAP_TEMP_STEP = 2.0  # K between the static map's grid points (linear interpolation)
 MAP_MARGIN = 4.0  # K beyond the lowest and highest temperature of a record
+MAP_EXTENSION = 30.0  # K added when a cached map must grow
+VOLTAGE_TABLE_STEP = 0.1  # K, fine table of the static map read by the voltage-drive loop
 STIFFNESS_LOAD_STEP = 1e-4  # relative load step for k = dF / dy of the static map
 MAX_DISTINCT_LOADS = 16  # static maps solved per simulation
+MAP_CACHE_SIZE = 64  # static maps kept between plants (a fit changes thermal values most)
 
 
 class QuasiStaticUnsupported(ValueError):
@@ -154,11 +159,11 @@ def delayed_input(time, values, delay):
     return out
 
 
-def static_map(model, load, temperatures, stop, stiffness_every=4):
+def static_map(model, load, temperatures, stop=None, stiffness_every=4):
     """Return (y_eq (m), k (N/m)) on ``temperatures`` (degC) under ``load`` (N).
 
     y_eq solves f_rod(y, T) = load (eq. (18) at rest) with the coil-contact stop
-    ``stop`` (m); k is the axial stiffness dF/dy there (inf in contact), solved at
+    ``stop`` (m, None: no stop); k is the axial stiffness dF/dy there (inf in contact), solved at
     every ``stiffness_every``-th temperature and interpolated (it only sets the
     mechanical lag b / k).
     """
@@ -166,8 +171,9 @@ def static_map(model, load, temperatures, stop, stiffness_every=4):
     step = max(abs(load), 1e-3) * STIFFNESS_LOAD_STEP
     y = np.empty(temps.size)
     guess = None
+    solve = getattr(model, 'loaded_equilibrium', model.equilibrium_elongation)
     for i, temp in enumerate(temps):
-        guess = model.equilibrium_elongation(load, float(temp), guess=guess)
+        guess = solve(load, float(temp), guess=guess)
         y[i] = guess
     if not np.all(np.isfinite(y)):
         raise ArithmeticError(f'static map: no equilibrium under load = {load:g} N')
@@ -175,12 +181,13 @@ def static_map(model, load, temperatures, stop, stiffness_every=4):
                                     [temps.size - 1])))
     k_sub = np.empty(sub.size)
     for j, i in enumerate(sub):
-        up = model.equilibrium_elongation(load + step, float(temps[i]), guess=y[i])
+        up = solve(load + step, float(temps[i]), guess=y[i])
         k_sub[j] = step / (up - y[i]) if up > y[i] else 1e12
     k = np.interp(temps, temps[sub], k_sub)
-    in_contact = y < stop
-    y[in_contact] = stop
-    k[in_contact] = math.inf
+    if stop is not None:
+        in_contact = y < stop
+        y[in_contact] = stop
+        k[in_contact] = math.inf
     return y, k
 
 
@@ -216,6 +223,29 @@ def make_statics(params, model=None):
     return make_kinetostatic_model(params, name)
 
 
+_MAP_CACHE = collections.OrderedDict()  # (mechanical params, model, load) -> map
+
+
+def _cached_map(key):
+    entry = _MAP_CACHE.get(key)
+    if entry is not None:
+        _MAP_CACHE.move_to_end(key)
+    return entry
+
+
+def _store_map(key, entry):
+    _MAP_CACHE[key] = entry
+    _MAP_CACHE.move_to_end(key)
+    while len(_MAP_CACHE) > MAP_CACHE_SIZE:
+        _MAP_CACHE.popitem(last=False)
+
+
+def _covers(entry, low, high):
+    """Return True when a cached map ``entry`` spans [low, high] (degC) with margins."""
+    return entry is not None and entry[0][0] <= low - MAP_MARGIN \
+        and entry[0][-1] >= high + MAP_MARGIN
+
+
 class QuasiStaticPlant:
     """The quasi-static TCA of one parameter set; static maps shared between records.
 
@@ -234,19 +264,45 @@ class QuasiStaticPlant:
         self.kinetostatics = kinetostatics or make_statics(params, model)
         self.ambient = fx.true_ambient(params.thermal, params.effects)
         self.stop = contact_elongation(params)
-        self._maps = {}  # load -> (grid, y, k)
+        # parameter sets with the same mechanics share their static maps (a fit's
+        # thermal and damping steps); the ambient and the contact stop are part of it
+        self._key = (mechanical_params(params), self.kinetostatics.name,
+                     params.effects.ambient_offset) if kinetostatics is None else None
+        self._own = {}  # load -> map, for a caller's own kinetostatics (not shared)
 
     def static_map(self, load, low, high):
-        """Return (grid (degC), y_eq (m), k (N/m)) covering [low, high] degC at load (N)."""
-        cached = self._maps.get(load)
-        if cached is not None and cached[0][0] <= low and cached[0][-1] >= high:
+        """Return (grid (degC), y_eq (m), k (N/m)) covering [low, high] degC at load (N).
+
+        The grid is aligned to multiples of MAP_TEMP_STEP, so maps extend cleanly.
+        """
+        cached = self._own.get(load)
+        key = None
+        if self._key is not None and not _covers(cached, low, high):
+            key = self._key + (load,)
+            cached = _cached_map(key) or cached
+        if _covers(cached, low, high):
+            self._own[load] = cached
             return cached
-        if cached is not None:
-            low, high = min(low, cached[0][0]), max(high, cached[0][-1])
-        grid = np.arange(low - MAP_MARGIN, high + MAP_MARGIN + MAP_TEMP_STEP, MAP_TEMP_STEP)
-        y, k = static_map(self.kinetostatics, load, grid, self.stop)
-        self._maps[load] = (grid, y, k)
-        return self._maps[load]
+        if cached is not None:  # extend generously: a voltage drive asks degree by degree
+            if cached[0][0] > low - MAP_MARGIN:
+                low = min(low, cached[0][0] + MAP_MARGIN - MAP_EXTENSION)
+            else:
+                low = cached[0][0] + MAP_MARGIN
+            if cached[0][-1] < high + MAP_MARGIN:
+                high = max(high, cached[0][-1] - MAP_MARGIN + MAP_EXTENSION)
+            else:
+                high = cached[0][-1] - MAP_MARGIN
+        first = math.floor((low - MAP_MARGIN) / MAP_TEMP_STEP)
+        last = math.ceil((high + MAP_MARGIN) / MAP_TEMP_STEP)
+        grid = np.arange(first, last + 1) * MAP_TEMP_STEP
+        y, k = static_map(self.kinetostatics, load, grid)
+        # a C2 spline of the free equilibrium (contact applied after it): the fit's
+        # finite differences must not see interpolation kinks
+        entry = (grid, CubicSpline(grid, y), k)
+        if self._key is not None:
+            _store_map(key or self._key + (load,), entry)
+        self._own[load] = entry
+        return entry
 
     def simulate(self, time, power, load=None, supply='power'):
         """Return the SimulationResult of a power (W) and load (N) profile at time (s).
@@ -300,9 +356,19 @@ class QuasiStaticPlant:
                                 temperature=temperature, resistance=r, tension=tension,
                                 velocity=velocity, true_displacement=contraction, substeps=0)
 
+    def _lookup(self, load, temperature):
+        """Return (y_eq (m), k (N/m)) at temperatures (degC) under load (N), contact on."""
+        temperature = np.asarray(temperature, dtype=float)
+        low = min(float(np.min(temperature)), self.ambient)
+        high = max(float(np.max(temperature)), self.ambient)
+        grid, spline, k_map = self.static_map(load, low, high)
+        y = spline(temperature)
+        k = np.interp(temperature, grid, k_map)
+        contact = y < self.stop
+        return np.where(contact, self.stop, y), np.where(contact, math.inf, k)
+
     def _reference(self, load):
-        grid, y_map, _ = self.static_map(load, self.ambient, self.ambient)
-        return float(np.interp(self.ambient, grid, y_map))
+        return float(self._lookup(load, self.ambient)[0])
 
     def loaded_length(self, load):
         """Return the loaded length l* + y_ref (m) at ambient under ``load`` (N)."""
@@ -315,63 +381,73 @@ class QuasiStaticPlant:
         return (-static, static, -e.friction_force, e.friction_force)
 
     def _equilibria(self, actuating, acting, distinct):
-        low = min(float(actuating.min()), self.ambient)
-        high = max(float(actuating.max()), self.ambient)
         y_eq = np.empty_like(actuating)
         stiffness = np.empty_like(actuating)
         for value in distinct:
-            grid, y_map, k_map = self.static_map(float(value), low, high)
             sel = acting == value
-            y_eq[sel] = np.interp(actuating[sel], grid, y_map)
-            stiffness[sel] = np.interp(actuating[sel], grid, k_map)
+            y_eq[sel], stiffness[sel] = self._lookup(float(value), actuating[sel])
         return y_eq, stiffness
 
     def _voltage_drive(self, time, power, acting):
-        """Step eq. (1) sample by sample with P = P_nominal R0 / R(T, x) (exact per step)."""
+        """Step eq. (1) sample by sample with P = P_nominal R0 / R(T, x) (exact per step).
+
+        The static maps are sampled once on a fine temperature grid
+        (VOLTAGE_TABLE_STEP) and read by linear interpolation in the loop.
+        """
         p = self.params
         e, effects = p.electrical, p.effects
         conductance = thermal_conductance(p.fiber, p.thermal)
-        tau = heat_capacity(p.fiber) / conductance
+        decay = np.exp(-np.diff(time) * conductance / heat_capacity(p.fiber))
+        lag = effects.second_thermal_lag
+        lag_decay = np.exp(-np.diff(time) / lag) if lag > 0.0 else None
         nominal = delayed_input(time, fx.heating_power(
             power, effects, p.thermal.delivered_power_ratio), effects.dead_time)
         y_ref = self._reference(float(acting[0]))
         length = self.kinetostatics.natural_length + y_ref
+        t0 = p.thermal.ambient_temperature
         n = time.size
         temp = np.full(n, self.ambient)
         fiber = np.full(n, self.ambient)
         y_eq = np.empty(n)
         stiffness = np.empty(n)
-        maps = {}
+        tables = {}
+        top = self.ambient + 2.0 * float(np.max(nominal, initial=0.0)) / conductance + 20.0
+
+        def table(load, t_fiber):
+            entry = tables.get(load)
+            if entry is None or t_fiber > entry[0] + entry[1] * (entry[2].size - 2):
+                high = max(top, t_fiber + MAP_EXTENSION)
+                grid = np.arange(self.ambient - MAP_MARGIN, high, VOLTAGE_TABLE_STEP)
+                y, k = self._lookup(load, grid)
+                entry = tables[load] = (float(grid[0]), VOLTAGE_TABLE_STEP, y, k)
+            return entry
 
         def lookup(load, t_fiber):
-            entry = maps.get(load)
-            if entry is None or t_fiber > entry[0][-1] - MAP_MARGIN:
-                top = max(t_fiber + 20.0, self.ambient + 40.0)
-                entry = maps[load] = self.static_map(load, self.ambient, top)
-            grid, y_map, k_map = entry
-            return float(np.interp(t_fiber, grid, y_map)), float(np.interp(t_fiber, grid, k_map))
+            g0, dg, y, k = table(load, t_fiber)
+            u = max((t_fiber - g0) / dg, 0.0)
+            i = min(int(u), y.size - 2)
+            w = u - i
+            return y[i] + w * (y[i + 1] - y[i]), k[i] + w * (k[i + 1] - k[i])
 
-        y_eq[0], stiffness[0] = lookup(float(acting[0]), fiber[0])
-        lag = effects.second_thermal_lag
-        friction = effects.friction_force > 0.0
-        offsets = self._friction_offsets()
-        position = y_eq[0]  # m, the end with friction (no mechanical lag), for R(T, x)
-        for k in range(n - 1):
-            h = time[k + 1] - time[k]
-            if not friction:
-                position = y_eq[k]
-            r = resistance(temp[k], y_ref - position, length, e, p.thermal.ambient_temperature)
+        def advance(k, inverse_r):
+            target = self.ambient + nominal[k] * e.resistance * inverse_r / conductance
+            temp[k + 1] = target + (temp[k] - target) * decay[k]
+            fiber[k + 1] = (temp[k + 1] if lag_decay is None else
+                            temp[k + 1] + (fiber[k] - temp[k + 1]) * lag_decay[k])
+            y_eq[k + 1], stiffness[k + 1] = lookup(float(acting[k + 1]), fiber[k + 1])
+
+        def inverse_resistance(i):
+            r = resistance(temp[i], y_ref - y_eq[i], length, e, t0)
             if not r > 0.0:
                 raise ArithmeticError(f'voltage supply: resistance {r:g} ohm is not positive')
-            target = self.ambient + nominal[k] * e.resistance / r / conductance
-            temp[k + 1] = target + (temp[k] - target) * math.exp(-h / tau)
-            fiber[k + 1] = (temp[k + 1] if lag <= 0.0 else
-                            temp[k + 1] + (fiber[k] - temp[k + 1]) * math.exp(-h / lag))
-            y_eq[k + 1], stiffness[k + 1] = lookup(float(acting[k + 1]), fiber[k + 1])
-            if friction:
-                band = [lookup(float(acting[k + 1]) + offset, fiber[k + 1])[0]
-                        for offset in offsets]
-                position = fx.friction_play(position, band[:2], band[2:])
+            return 1.0 / r
+
+        y_eq[0], stiffness[0] = lookup(float(acting[0]), fiber[0])
+        for k in range(n - 1):
+            # Heun: the power of each interval is the mean of 1/R at its two ends
+            first = inverse_resistance(k)
+            advance(k, first)
+            advance(k, 0.5 * (first + inverse_resistance(k + 1)))
         return temp, fiber, y_eq, stiffness
 
 

@@ -1,0 +1,109 @@
+"""Random muscles and records that look measured, for testing identification.
+
+A muscle is drawn around a thread preset's TCA (geometry and thermal constants
++-30 %), its unmeasurable parameters (time constant, steady rise, actuation gain,
+damping) drawn independently of any fit's prior. Its records are simulated with
+the full central-difference dynamics (18) at a fine physics rate (the fits use
+the quasi-static reduction: another integrator), then corrupted the way a bench
+corrupts them: power logged as nominal W x on/off, coloured (AR(1)) noise and a
+slow drift on the displacement, encoder quantisation, no temperature, a low
+sample rate. The truth is returned beside the records.
+"""
+from dataclasses import dataclass
+import math
+
+import numpy as np
+
+from tca_ros.diagnosis.calibration import apply_calibration, record_params
+from tca_ros.diagnosis.data import Record
+from tca_ros.model.dynamics import simulate
+from tca_ros.model.params import GRAVITY, load_params
+from tca_ros.model.thermal import heat_capacity, thermal_conductance
+
+GEOMETRY_SPREAD = 0.3  # +-30 % on fiber radius, coil radius, fiber length
+TRUTH_RANGES = {  # calibration parameter -> (low, high) of the hidden truth
+    'thermal_time_constant': (0.6, 1.8),  # x the start value
+    'steady_rise': (0.7, 1.4),  # x the start value
+    'actuation_gain': (0.6, 1.6),
+    'damping': (0.2, 2.0),  # N s/m
+}
+
+
+@dataclass
+class RealisticSet:
+    """Records of one random muscle and the truth behind them."""
+
+    start: object  # TcaParams a maker would write (geometry known, rest nominal)
+    truth: object  # TcaParams that made the records
+    values: dict  # calibration parameter -> true value
+    records: list
+
+
+def draw_muscle(rng, config='free_stroke', target_peak_c=130.0, powers=3):
+    """Return (start params, truth params, true values, powers (W)) of a random muscle.
+
+    Geometry is drawn +-GEOMETRY_SPREAD around ``config`` and is known to the
+    start; the powers are chosen so the hottest step reaches about
+    ``target_peak_c`` (degC) in the truth.
+    """
+    base = load_params(config)
+    f = lambda: 1.0 + rng.uniform(-GEOMETRY_SPREAD, GEOMETRY_SPREAD)  # noqa: E731
+    radius = base.fiber.radius * f()
+    coil = max(base.coil.radius * f(), 1.6 * radius)
+    start = base.with_values(**{'fiber.radius': radius, 'coil.radius': coil,
+                                'fiber.length': base.fiber.length * f(),
+                                'thermal.convection_coefficient':
+                                base.thermal.convection_coefficient * f(),
+                                'fiber.specific_heat': base.fiber.specific_heat * f()})
+    conductance = thermal_conductance(start.fiber, start.thermal)
+    tau = heat_capacity(start.fiber) / conductance
+    values = {'thermal_time_constant': tau * rng.uniform(*TRUTH_RANGES['thermal_time_constant']),
+              'steady_rise': rng.uniform(*TRUTH_RANGES['steady_rise']) / conductance,
+              'actuation_gain': rng.uniform(*TRUTH_RANGES['actuation_gain']),
+              'damping': rng.uniform(*TRUTH_RANGES['damping'])}
+    truth = apply_calibration(start, values)
+    top = (target_peak_c - start.thermal.ambient_temperature) / values['steady_rise']
+    levels = [round(top * (k + 1) / powers, 3) for k in range(powers)]
+    return start, truth, values, levels
+
+
+def bench_record(truth, power, mass, rng, rate=5.0, duration=80.0, on=(20.0, 50.0),
+                 quantum=8.4e-6, white=5e-6, coloured=30e-6, drift=0.1e-3,
+                 physics_rate=500.0, model='cst', supply='power'):
+    """Return a Record of a step of ``power`` (W) on ``truth`` as a bench logs it.
+
+    Logged power is nominal x on/off; displacement gets white noise (m), AR(1)
+    noise of ``coloured`` (m, correlation time 2 s), a linear drift of up to
+    ``drift`` (m) over the record and quantisation to ``quantum`` (m). The truth
+    is simulated at ``physics_rate`` (Hz) with the full dynamics (18).
+    """
+    time = np.arange(int(round(duration * rate)) + 1) / rate
+    nominal = np.where((time >= on[0]) & (time < on[1]), power, 0.0)
+    load = np.full_like(time, mass * GRAVITY)
+    params = truth.with_values(**{'dynamics.mass': mass, 'dynamics.load': mass * GRAVITY})
+    sim = simulate(params, time, nominal, load, model=model, physics_rate=physics_rate,
+                   supply=supply)
+    n = time.size
+    a = math.exp(-1.0 / (rate * 2.0))
+    ar = np.zeros(n)
+    shocks = rng.standard_normal(n) * coloured * math.sqrt(1.0 - a * a)
+    for k in range(1, n):
+        ar[k] = a * ar[k - 1] + shocks[k]
+    measured = (sim.displacement + white * rng.standard_normal(n) + ar
+                + rng.uniform(-drift, drift) * time / time[-1])
+    if quantum > 0.0:
+        measured = np.round(measured / quantum) * quantum
+    measured -= measured[0]  # an encoder reads zero at the start
+    return Record(time=time, power=nominal, load=load, displacement=measured,
+                  meta={'tca': 'start', 'mass_kg': mass, 'sample_rate_hz': rate},
+                  source=f'{power:g} W, {mass * 1e3:g} g')
+
+
+def realistic_set(seed, config='free_stroke', mass=0.02, repeats=1, **record_options):
+    """Return a RealisticSet: a random muscle's step records at three powers."""
+    rng = np.random.default_rng(seed)
+    start, truth, values, powers = draw_muscle(rng, config)
+    records = [bench_record(truth, p, mass, rng, **record_options)
+               for p in powers for _ in range(repeats)]
+    return RealisticSet(start=record_params(start, records[0]), truth=truth, values=values,
+                        records=records)
