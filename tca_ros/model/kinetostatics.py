@@ -166,7 +166,6 @@ class KinetostaticModel:
             y = y_new
         return y
 
-
     def loaded_equilibrium(self, load, temperature, guess=None):
         """Return y (m) with f_rod(y, T) = load (N), the moduli taken at F = load.
 
