@@ -410,6 +410,9 @@ class QuasiStaticPlant:
         fiber = np.full(n, self.ambient)
         y_eq = np.empty(n)
         stiffness = np.empty(n)
+        position = y_eq  # m, the end as R(T, x) sees it: with friction, the play output
+        if effects.friction_force > 0.0:
+            position = np.empty(n)
         tables = {}
         top = self.ambient + 2.0 * float(np.max(nominal, initial=0.0)) / conductance + 20.0
 
@@ -435,14 +438,19 @@ class QuasiStaticPlant:
             fiber[k + 1] = (temp[k + 1] if lag_decay is None else
                             temp[k + 1] + (fiber[k] - temp[k + 1]) * lag_decay[k])
             y_eq[k + 1], stiffness[k + 1] = lookup(float(acting[k + 1]), fiber[k + 1])
+            if position is not y_eq:  # friction: the end stays in its band (no lag here)
+                band = [lookup(float(acting[k + 1]) + offset, fiber[k + 1])[0]
+                        for offset in self._friction_offsets()]
+                position[k + 1] = fx.friction_play(position[k], band[:2], band[2:])
 
         def inverse_resistance(i):
-            r = resistance(temp[i], y_ref - y_eq[i], length, e, t0)
+            r = resistance(temp[i], y_ref - position[i], length, e, t0)
             if not r > 0.0:
                 raise ArithmeticError(f'voltage supply: resistance {r:g} ohm is not positive')
             return 1.0 / r
 
         y_eq[0], stiffness[0] = lookup(float(acting[0]), fiber[0])
+        position[0] = y_eq[0]
         for k in range(n - 1):
             # Heun: the power of each interval is the mean of 1/R at its two ends
             first = inverse_resistance(k)
