@@ -17,9 +17,11 @@ from geometry_msgs.msg import Point
 import numpy as np
 from rcl_interfaces.msg import SetParametersResult
 import rclpy
+from rclpy._rclpy_pybind11 import RCLError
 from rclpy.clock import Clock, ClockType
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
+from rclpy.parameter import Parameter
 from rclpy.qos import QoSProfile
 from rclpy.qos_overriding_options import QoSOverridingOptions
 from rosgraph_msgs.msg import Clock as ClockMsg
@@ -34,9 +36,11 @@ from tca_ros.model.params import from_flat_dict, ParameterError, SCHEMA, SPECS
 from tca_ros.model.resistance import power_from_voltage
 from tca_ros.model.rod_model import centreline as rod_centreline
 from tca_ros.node_params import (  # noqa: F401  (re-exported: the node's parameter API)
-    build_simulator, check_ros_arguments, check_unknown_overrides, descriptor,
-    GuardedParameterService, init_quietly, log_fatal, NODE_SCHEMA, NODE_SPECS, physics_dt,
-    physics_steps_per_tick, READ_ONLY, REBUILD, validate_node_values)
+    build_simulator, check_model_supports, check_ros_arguments, check_unknown_overrides,
+    descriptor, GuardedParameterService, init_quietly, INTEGER_NAMES,
+    integral_doubles_as_integers, log_fatal, model_for_node, NAMESPACED, namespaced_name,
+    NODE_SCHEMA, NODE_SPECS, physics_dt, physics_steps_per_tick, READ_ONLY, REBUILD,
+    validate_node_values)
 
 
 STATE_QOS = QoSProfile(depth=10)  # reliable: serves reliable and best-effort readers
@@ -65,17 +69,26 @@ class TcaSimNode(Node):
         self._parameter_service = GuardedParameterService(self)
         all_specs = [(s, s.name in READ_ONLY) for s in SCHEMA + NODE_SCHEMA]
         for spec, _ in all_specs:
-            self.declare_parameter(spec.name, spec.default,
-                                   descriptor(spec, with_range=False))
+            default = spec.default if spec.name not in NAMESPACED else \
+                namespaced_name(self.get_namespace(), spec.default)
+            self.declare_parameter(spec.name, default, descriptor(spec, with_range=False))
         check_unknown_overrides(self)  # a misspelt name is refused, as tca_sim does
         tca_values = {s.name: self.get_parameter(s.name).value for s in SCHEMA}
         node_values = {s.name: self.get_parameter(s.name).value for s in NODE_SCHEMA}
-        self._params = from_flat_dict(tca_values, source='ros parameters')
+        self._params, warning = model_for_node(
+            from_flat_dict(tca_values, source='ros parameters'))
+        if warning:
+            self.get_logger().warning(warning)
+            self.set_parameters([Parameter('model', value=self._params.model)])
         self._cfg = validate_node_values(node_values)
         self._sim = build_simulator(self._params, self._cfg)
+        # 1000.0 from a params file is stored as the INTEGER it names (keeps the type).
+        self.set_parameters(integral_doubles_as_integers(
+            [self.get_parameter(name) for name in sorted(INTEGER_NAMES)]))
         # Ranges only now: a bad start-up value gets the schema's one-line message above.
         for spec, read_only in all_specs:
             self.set_descriptor(spec.name, descriptor(spec, read_only))
+        self.add_pre_set_parameters_callback(integral_doubles_as_integers)
         self.add_on_set_parameters_callback(self._on_set_parameters)
 
         self._rng = np.random.default_rng(int(self._cfg['noise.seed']))
@@ -196,13 +209,18 @@ class TcaSimNode(Node):
             self._catch_up()
             self._publish_state(self._now_ns())
         except Exception as exc:  # noqa: B902  a tick must never end the node
-            self._fail(f'{type(exc).__name__}: {exc}')
+            self._fail_unless_stopping(exc)
 
     def _on_clock_timer(self):
         """Tick the node-owned clock; a failure marks the muscle broken, never raises."""
         try:
             self._clock_tick()
         except Exception as exc:  # noqa: B902  a tick must never end the node
+            self._fail_unless_stopping(exc)
+
+    def _fail_unless_stopping(self, exc):
+        """Fail the episode on exc, unless a signal shut the context down meanwhile."""
+        if self.context.ok():
             self._fail(f'{type(exc).__name__}: {exc}')
 
     def _clock_tick(self):
@@ -477,7 +495,7 @@ class TcaSimNode(Node):
         marker = Marker()
         marker.header.stamp = stamp
         marker.header.frame_id = self._cfg['base_frame']
-        marker.ns = 'tca'
+        marker.ns = self.get_fully_qualified_name()  # unique per muscle in one RViz
         marker.type = Marker.LINE_STRIP
         marker.action = Marker.ADD
         marker.pose.orientation.w = 1.0
@@ -581,6 +599,7 @@ class TcaSimNode(Node):
         cfg = self._cfg
         try:
             params = from_flat_dict(tca_values, source='ros parameters')
+            check_model_supports(params)
             cfg = validate_node_values(node_values)
             rebuild = params != self._params or any(cfg[k] != self._cfg[k] for k in REBUILD)
             if rebuild and params == self._params:
@@ -661,6 +680,11 @@ def main(args=None):
         return 2
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
+    except RCLError:
+        # SIGINT/SIGTERM shut the context down while the executor or a callback was
+        # using it ('context is not valid', 'publisher's context is invalid'): a stop.
+        if rclpy.ok():
+            raise
     finally:
         if node is not None:
             node.log_time_summary()

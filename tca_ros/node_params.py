@@ -12,13 +12,14 @@ turns bad input into one line naming the field, the value and what is allowed:
 - ``check_ros_arguments``: the params files and ``-p`` rules of the command line,
   read before rcl parses them (rcl answers a bad file with a multi-line error).
 """
+from dataclasses import replace
 import math
 import os
 import sys
 import tempfile
 
-from rcl_interfaces.msg import (FloatingPointRange, ParameterDescriptor, ParameterType,
-                                SetParametersResult)
+from rcl_interfaces.msg import (FloatingPointRange, IntegerRange, ParameterDescriptor,
+                                ParameterType, SetParametersResult)
 import rclpy
 from rclpy._rclpy_pybind11 import RCLError
 from rclpy.exceptions import ParameterNotDeclaredException
@@ -27,16 +28,17 @@ from rclpy.parameter_service import ParameterService
 import yaml
 
 from tca_ros.model.dynamics import StabilityError, TcaSimulator
-from tca_ros.model.params import check_value, ParameterError, ParamSpec, SPECS, to_flat_dict
+from tca_ros.model.params import (check_value, ParameterError, ParamSpec, SCHEMA, SPECS,
+                                  to_flat_dict)
 
 #: Node parameters (beside the TCA SCHEMA); validated with the same check_value.
 NODE_SCHEMA = (
-    ParamSpec('physics_rate', 1000.0, 'Hz', 'Rate of the physics steps (dynamics (18), eq. (1)).',
-              1.0, 100000.0),
+    ParamSpec('physics_rate', 1000, 'Hz', 'Rate of the physics steps (dynamics (18), eq. (1)).',
+              1, 100000),
     ParamSpec('publish_rate', 100.0, 'Hz', 'Rate of the state outputs (and of /clock ticks).',
               0.1, 10000.0),
     ParamSpec('shape_rate', 2.0, 'Hz', 'Rate of the shape Marker; 0 turns it off.', 0.0, 100.0),
-    ParamSpec('shape_points', 1000.0, '-', 'Number of points of the shape Marker.', 2.0, 100000.0),
+    ParamSpec('shape_points', 1000, '-', 'Number of points of the shape Marker.', 2, 100000),
     ParamSpec('publish_clock', False, '-',
               'Own the time: step at real_time_factor and publish /clock.'),
     ParamSpec('real_time_factor', 1.0, '-',
@@ -58,15 +60,20 @@ NODE_SCHEMA = (
     ParamSpec('melt_temperature', 250.0, 'degC',
               'Above this the muscle breaks (tension 0, resistance inf) until reset.',
               -50.0, 2000.0),
-    ParamSpec('frame_id', 'tca', '-', 'Frame of the temperature sensor.'),
-    ParamSpec('base_frame', 'tca_base', '-', 'Frame of the clamp, for the shape Marker.'),
-    ParamSpec('joint_name', 'tca_joint', '-', 'Joint name in joint_states.'),
+    ParamSpec('frame_id', 'tca', '-',
+              'Frame of the temperature sensor; default prefixed by the namespace.'),
+    ParamSpec('base_frame', 'tca_base', '-',
+              'Frame of the clamp, for the shape Marker; default prefixed by the namespace.'),
+    ParamSpec('joint_name', 'tca_joint', '-',
+              'Joint name in joint_states; default prefixed by the namespace.'),
     ParamSpec('noise.displacement', 0.0, 'm', 'Std of the displacement noise.', 0.0, 1.0),
     ParamSpec('noise.temperature', 0.0, 'K', 'Std of the temperature noise.', 0.0, 100.0),
     ParamSpec('noise.resistance', 0.0, 'ohm', 'Std of the resistance noise.', 0.0, 1e6),
-    ParamSpec('noise.seed', 0.0, '-', 'Seed of the measurement noise.', 0.0, 2.0 ** 31 - 1),
+    ParamSpec('noise.seed', 0, '-', 'Seed of the measurement noise.', 0, 2 ** 31 - 1),
 )
 NODE_SPECS = {s.name: s for s in NODE_SCHEMA}
+#: Names whose default is prefixed by the node's namespace (/finger1: finger1/tca_joint).
+NAMESPACED = frozenset({'frame_id', 'base_frame', 'joint_name'})
 READ_ONLY = frozenset({'publish_clock'})  # the time source cannot change while running
 #: Node parameters that require a new simulator when changed.
 REBUILD = frozenset({'physics_rate', 'publish_rate'})
@@ -77,6 +84,17 @@ _MECHANICAL = ('fiber.', 'coil.', 'moduli.', 'thermal.ambient_temperature_degc',
                'effects.extra_softening')
 _TYPE_NAMES = {getattr(ParameterType, n): n[len('PARAMETER_'):] for n in dir(ParameterType)
                if n.startswith('PARAMETER_')}
+
+
+def namespaced_name(namespace, name):
+    """Return ``name`` prefixed by a node namespace, tf2 style (no leading slash).
+
+    ``namespaced_name('/finger1', 'tca_joint')`` is ``'finger1/tca_joint'``; in the
+    root namespace the name is unchanged. Several muscles then publish distinct joint
+    and frame names into a merged ``joint_states`` or one RViz.
+    """
+    prefix = namespace.strip('/')
+    return f'{prefix}/{name}' if prefix else name
 
 
 def validate_node_values(values):
@@ -98,6 +116,33 @@ def validate_node_values(values):
             f"parameter 'melt_temperature' = {out['melt_temperature']:g}: must be above "
             f"max_temperature ({out['max_temperature']:g} degC)")
     return out
+
+
+def check_model_supports(params):
+    """Raise ParameterError (one line) for a model the node cannot step for this TCA.
+
+    The rod model's dynamics table needs a helix; a conical coil runs with cst or love
+    (tca_sim statics keeps the rod model's conical shapes).
+    """
+    if params.model == 'rod' and params.coil.shape != 'helix':
+        raise ParameterError(
+            f"parameter 'model' = 'rod': the node's rod model needs coil.shape helix (this "
+            f'TCA is {params.coil.shape}); set model to cst or love')
+
+
+def model_for_node(params):
+    """Return (params, warning): a conical TCA with model rod falls back to cst.
+
+    The shipped config/conical.yaml says ``model: rod`` for ``tca_sim statics`` (the
+    conical rod shapes); the node steps it with cst and says so in one warning line.
+    """
+    try:
+        check_model_supports(params)
+    except ParameterError:
+        warning = (f"model 'rod' does not step a {params.coil.shape} coil in the node: "
+                   "running model 'cst' (set model:=cst or model:=love to choose)")
+        return replace(params, model='cst'), warning
+    return params, ''
 
 
 def physics_steps_per_tick(node_values):
@@ -157,7 +202,37 @@ def descriptor(spec, read_only=False, with_range=True):
     if with_range and finite and isinstance(spec.default, float):
         d.floating_point_range = [FloatingPointRange(from_value=float(spec.low),
                                                      to_value=float(spec.high))]
+    if with_range and _is_integer_spec(spec):
+        # Statically INTEGER once started (a double would retype it); the parameter
+        # services refuse a fraction in one line before rclpy's type check.
+        d.dynamic_typing, d.type = False, ParameterType.PARAMETER_INTEGER
+        d.integer_range = [IntegerRange(from_value=int(spec.low), to_value=int(spec.high),
+                                        step=1)]
     return d
+
+
+def _is_integer_spec(spec):
+    return isinstance(spec.default, int) and not isinstance(spec.default, bool)
+
+
+#: Names of the INTEGER parameters (node and TCA schemas).
+INTEGER_NAMES = frozenset(s.name for s in NODE_SCHEMA + SCHEMA if _is_integer_spec(s))
+
+
+def integral_doubles_as_integers(parameters):
+    """Return the parameters with integral doubles of INTEGER parameters made integers.
+
+    A pre-set callback: ``ros2 param set /tca physics_rate 2000.0`` (or 2000.0 in a
+    params file) stores the INTEGER 2000, so the parameter keeps its type. Any other
+    value passes unchanged, for the on-set callback to refuse in one line.
+    """
+    out = []
+    for p in parameters:
+        if p.name in INTEGER_NAMES and p.type_ == Parameter.Type.DOUBLE and \
+                math.isfinite(p.value) and float(p.value).is_integer():
+            p = Parameter(p.name, Parameter.Type.INTEGER, int(p.value))
+        out.append(p)
+    return out
 
 
 def unknown_overrides(node):
@@ -234,6 +309,12 @@ class GuardedParameterService(ParameterService):
 
 
 def _set_atomically(node, params):
+    for p in integral_doubles_as_integers(params):
+        if p.name in INTEGER_NAMES and p.type_ != Parameter.Type.INTEGER:
+            try:  # the schema's one line, not rclpy's 'Wrong parameter type'
+                check_value(NODE_SPECS.get(p.name) or SPECS[p.name], p.value)
+            except ParameterError as exc:
+                return SetParametersResult(successful=False, reason=str(exc))
     try:
         return node.set_parameters_atomically(params)
     except ParameterNotDeclaredException as exc:

@@ -24,6 +24,8 @@ from rclpy.qos import QoSProfile
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64
 
+from tca_ros.node_params import namespaced_name
+
 COMMAND_QOS = QoSProfile(depth=10)
 FEEDBACK_QOS = QoSProfile(depth=10)
 SETPOINT_QOS = QoSProfile(depth=10)
@@ -107,7 +109,9 @@ class TcaPidNode(Node):
                 description='Send no power_cmd until a displacement_setpoint arrives.',
                 read_only=True)).value
         self._pid = PidController(**values)
-        self._joint = self.declare_parameter('joint_name', 'tca_joint', ParameterDescriptor(
+        # tca_node's default joint_name in the same namespace (/finger1: finger1/tca_joint)
+        self._joint = self.declare_parameter('joint_name', namespaced_name(
+            self.get_namespace(), 'tca_joint'), ParameterDescriptor(
             description='Joint of joint_states to control (joint_name of tca_node).',
             read_only=True)).value
         self.add_on_set_parameters_callback(self._on_set_parameters)

@@ -15,10 +15,13 @@ A params file has the ROS 2 layout::
 
 Values missing from a file take the schema default (the paper's free-stroke TCA).
 """
+import array
 from dataclasses import dataclass, field, fields, replace
 import math
+import numbers
 import os
 
+import numpy as np
 import yaml
 
 GRAVITY = 9.81  # m/s^2, g_r of Sec. III-C [1]
@@ -171,13 +174,25 @@ def check_value(spec, value):
         raise ParameterError(
             f"parameter '{spec.name}' = {value!r}: must be one of {', '.join(spec.choices)}")
     if isinstance(default, list):
-        ok = (isinstance(value, (list, tuple)) and len(value) == spec.length
-              and all(_is_real(v) and math.isfinite(v) for v in value))
+        # A ROS double array arrives as array.array('d'), a numpy array from Python callers.
+        items = list(value) if _is_sequence(value) else None
+        ok = (items is not None and len(items) == spec.length
+              and all(_is_real(v) and math.isfinite(v) for v in items))
         if not ok:
+            shown = items if items is not None else (
+                value.tolist() if isinstance(value, np.ndarray) else value)
             raise ParameterError(
-                f"parameter '{spec.name}' = {value!r}: must be a list of {spec.length} "
+                f"parameter '{spec.name}' = {shown!r}: must be a list of {spec.length} "
                 f'finite numbers ({spec.unit})')
-        return [float(v) for v in value]
+        return [float(v) for v in items]
+    if isinstance(default, int):
+        # An integral double (1000.0 in a params file) is taken as the integer it names.
+        if _is_real(value) and math.isfinite(value) and float(value).is_integer() and \
+                spec.low <= value <= spec.high:
+            return int(value)
+        raise ParameterError(
+            f"parameter '{spec.name}' = {value!r}: must be an integer in "
+            f'[{spec.low:g}, {spec.high:g}] {spec.unit}')
     if not _is_real(value) or not math.isfinite(value) or not (
             spec.low <= value <= spec.high):
         raise ParameterError(
@@ -187,7 +202,14 @@ def check_value(spec, value):
 
 
 def _is_real(value):
-    return isinstance(value, (int, float)) and not isinstance(value, bool)
+    return isinstance(value, numbers.Real) and not isinstance(value, (bool, np.bool_))
+
+
+def _is_sequence(value):
+    """Return True for a list-like value: list, tuple, array.array, 1-D ndarray."""
+    if isinstance(value, np.ndarray):
+        return value.ndim == 1
+    return isinstance(value, (list, tuple, array.array))
 
 
 @dataclass(frozen=True)
