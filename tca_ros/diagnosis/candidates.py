@@ -69,8 +69,6 @@ _SPACES = {
     # F_c / k of 0.1 N is ~4 mm on the 23 N/m free-stroke coil: beyond a recorded offset
     'effects.friction_force': (ParameterSpace('effects.friction_force', 0.0, 0.1),
                                (0.005, 0.02, 0.05)),
-    'effects.static_friction_ratio': (ParameterSpace('effects.static_friction_ratio',
-                                                     1.0, 3.0), (1.0, 1.5)),
 }
 CONTACT_START_FRACTIONS = (0.9, 0.75, 0.6, 0.45)  # stop at these fractions of the peak
 CONTACT_MARGIN_DEG = 0.05  # alpha_min stays this far below alpha* (validation rule)

@@ -72,7 +72,8 @@ CATALOGUE = {
     'power_loss': ('effects.power_loss_fraction',),
     'dead_time': ('effects.dead_time',),
     'second_thermal_lag': ('effects.second_thermal_lag',),
-    'friction': ('effects.friction_force', 'effects.static_friction_ratio'),
+    # F_s / F_k is not searched: the stick-slip it adds makes the cost jump with it
+    'friction': ('effects.friction_force',),
 }
 
 
