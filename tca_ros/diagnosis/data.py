@@ -459,8 +459,11 @@ def read_bag_record(path, sample_rate=None, tca='', mass_kg=None, load=None,
     origin = int(clock[0])
     t_x = (clock - origin) * 1e-9
     x = np.array([s[2] for s in disp])
-    rate = sample_rate or 1.0 / float(np.median(np.diff(t_x))) if t_x.size > 1 else None
-    if rate is None or not (math.isfinite(rate) and rate > 0.0):
+    if t_x.size < 2:
+        raise DataError(f'{path}: row {len(disp)}, column {disp_topic!r}: {len(disp)} '
+                        f'samples, need at least {MIN_SAMPLES}')
+    rate = sample_rate or 1.0 / float(np.median(np.diff(t_x)))
+    if not (math.isfinite(rate) and rate > 0.0):
         raise DataError(f'{path}: row {len(disp)}, column {disp_topic!r}: {len(disp)} '
                         f'samples, need at least {MIN_SAMPLES}')
     count = t_x[-1] * rate + 1.0
