@@ -190,9 +190,10 @@ def check_value(spec, value):
         if _is_real(value) and math.isfinite(value) and float(value).is_integer() and \
                 spec.low <= value <= spec.high:
             return int(value)
+        unit = '' if spec.unit == '-' else f' {spec.unit}'
         raise ParameterError(
             f"parameter '{spec.name}' = {value!r}: must be an integer in "
-            f'[{spec.low:g}, {spec.high:g}] {spec.unit}')
+            f'[{spec.low:g}, {spec.high:g}]{unit}')
     if not _is_real(value) or not math.isfinite(value) or not (
             spec.low <= value <= spec.high):
         raise ParameterError(
