@@ -20,8 +20,8 @@ def install(tmp_path_factory):
         pytest.skip('colcon is not installed in this environment')
     base = tmp_path_factory.mktemp('colcon')
     result = subprocess.run(
-        [str(COLCON), 'build', '--paths', str(ROOT), '--build-base', str(base / 'build'),
-         '--install-base', str(base / 'install')],
+        [str(COLCON), 'build', '--paths', str(ROOT), '--packages-select', 'tca_ros',
+         '--build-base', str(base / 'build'), '--install-base', str(base / 'install')],
         cwd=base, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, timeout=90)
     assert result.returncode == 0, result.stdout
     yield base / 'install' / 'tca_ros'
@@ -56,3 +56,16 @@ def test_installed_tca_node_runs_as_ros2_run_would(install, tmp_path):
         node.wait_for_log('tca node ready')
     finally:
         assert node.stop() == 0, node.log()
+
+
+def test_setup_bash_puts_the_package_on_the_ament_path(install):
+    """README 'For ROS users': colcon-bash writes install/setup.bash; sourcing it works."""
+    setup = install.parent / 'setup.bash'
+    assert setup.is_file(), 'no install/setup.bash: colcon-bash missing (requirements.txt)'
+    env = os.environ.copy()
+    env['AMENT_PREFIX_PATH'] = str(pathlib.Path(sys.prefix))  # the underlay: the venv
+    result = subprocess.run(
+        ['bash', '-c', f'set +u; source {setup} && echo "$AMENT_PREFIX_PATH"'],
+        env=env, capture_output=True, text=True, timeout=30)
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.strip().split(':') == [str(install), sys.prefix], result.stdout
