@@ -197,3 +197,21 @@ def test_names_are_unique_per_namespace(tmp_path):
         probe.close()
         for node in nodes:
             assert node.stop() == 0, node.log()
+
+
+def test_tca_pid_in_a_namespace_controls_that_namespaces_joint(tmp_path):
+    from std_msgs.msg import Float64
+    sim = start_tca(tmp_path, '-r', '__ns:=/finger1', name='sim')
+    pid = NodeProcess(module_command('tca_ros.pid_node', [
+        '-r', '__ns:=/finger1', '-p', 'setpoint:=0.001']), tmp_path / 'pid.log')
+    probe = Probe()
+    try:
+        pid.wait_for_log('tca_pid ready')
+        power = probe.record('/finger1/power_cmd', Float64)
+        assert probe.spin_until(lambda: len(power) > 20, 30.0), pid.log()
+        assert all(m.data > 0.0 for _, m in power[-10:]), [m.data for _, m in power[-10:]]
+        assert 'no finite position' not in pid.log(), pid.log()
+    finally:
+        probe.close()
+        assert pid.stop() == 0, pid.log()
+        assert sim.stop() == 0, sim.log()
