@@ -193,7 +193,9 @@ def descriptor(spec, read_only=False, with_range=True):
     """Return the ParameterDescriptor of a schema entry (unit and range in the text)."""
     text = f'{spec.description} Unit: {spec.unit}.'
     finite = math.isfinite(spec.low) and math.isfinite(spec.high)
-    if finite:
+    if finite and _is_integer_spec(spec):
+        text += f' Range: [{int(spec.low)}, {int(spec.high)}].'
+    elif finite:
         text += f' Range: [{spec.low:g}, {spec.high:g}].'
     if spec.choices:
         text += f' One of: {", ".join(spec.choices)}.'

@@ -193,7 +193,7 @@ def check_value(spec, value):
         unit = '' if spec.unit == '-' else f' {spec.unit}'
         raise ParameterError(
             f"parameter '{spec.name}' = {value!r}: must be an integer in "
-            f'[{spec.low:g}, {spec.high:g}]{unit}')
+            f'[{int(spec.low)}, {int(spec.high)}]{unit}')
     if not _is_real(value) or not math.isfinite(value) or not (
             spec.low <= value <= spec.high):
         raise ParameterError(
