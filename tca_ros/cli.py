@@ -358,8 +358,12 @@ def cmd_diagnose(args, out):
                              f'{args.max_steps} (--max-steps)')
         if record.duration * DIAGNOSIS_FIT_HZ + 1.0 < MIN_FIT_SAMPLES:
             fit_rate = record.sample_rate  # a short record is fitted at its own rate
+    if args.calibrated:
+        checked_config(args.calibrated, option='--calibrated')
     result = diagnose(args.data, args.config, report_dir=args.report, model=args.model,
-                      progress=not args.quiet, fit_rate=fit_rate)
+                      progress=not args.quiet, fit_rate=fit_rate,
+                      calibrate_first=not args.no_calibrate, calibrated=args.calibrated,
+                      supply=args.supply)
     for name, rmse in (('nominal', result.nominal_rmse), ('extended', result.extended_rmse)):
         for channel, value in rmse.items():
             if not math.isfinite(value):
@@ -429,8 +433,16 @@ def build_parser():
     sp.add_argument('data', help='recording: CSV with # key: value header, or MCAP bag')
     sp.add_argument('--config', default=None,
                     help="nominal params file (default: the recording's '# tca:' header)")
-    sp.add_argument('--model', choices=MODELS, default='cst',
-                    help='kinetostatic model of the fits (cst: fastest; rod: most exact)')
+    sp.add_argument('--model', choices=MODELS, default=None,
+                    help="kinetostatic model of the fits (default: the config's model)")
+    sp.add_argument('--calibrated', default=None,
+                    help='params file from `tca_sim calibrate`: the nominal model to judge '
+                         'effects against (skips the calibration of the training part)')
+    sp.add_argument('--no-calibrate', action='store_true',
+                    help='judge effects against the config as it is (no calibration first)')
+    sp.add_argument('--supply', choices=('power', 'voltage'), default='power',
+                    help='the power column: delivered power, or the nominal power of a '
+                         'constant-voltage supply set at R0')
     sp.add_argument('--report', default=None,
                     help='directory (DIR) for report.md, PNG plots, diagnosis.json and '
                          'the extended params YAML')

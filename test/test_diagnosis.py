@@ -23,8 +23,9 @@ from tca_ros.model.params import load_params
 DURATION_S = 150.0  # long enough for creep retardation times up to 60 s
 RATE_HZ = 20.0
 EFFECTS = list(CATALOGUE)
-JSON_KEYS = {'effects', 'candidates', 'nominal_heldout_rmse', 'extended_heldout_rmse',
-             'gain_percent', 'extended_params', 'verdict'}
+JSON_KEYS = {'effects', 'helpful', 'model', 'calibrated', 'candidates',
+             'nominal_heldout_rmse', 'extended_heldout_rmse', 'gain_percent',
+             'extended_params', 'verdict'}
 
 
 def _record(tmp_path, seed, effects, n_effects=1, duration=DURATION_S):
@@ -36,6 +37,10 @@ def _record(tmp_path, seed, effects, n_effects=1, duration=DURATION_S):
 
 
 def _diagnose(path, **kwargs):
+    # the effect search itself, against the model that made the record: cst, no
+    # calibration first (test_diagnosis_real.py covers data the project did not make)
+    kwargs.setdefault('model', 'cst')
+    kwargs.setdefault('calibrate_first', False)
     result = diagnose(path, 'free_stroke', progress=False, **kwargs)
     print(format_summary(result))  # shown by pytest on failure
     return result
@@ -128,7 +133,7 @@ def test_malformed_data_raises_data_error(tmp_path):
     path.write_text('# tca: free_stroke\n# mass_kg: 0.03\n# sample_rate_hz: 10\n'
                     'time,power,load\n0,0,0\n')
     with pytest.raises(DataError, match=r"bad.csv: row 4, column 'displacement'"):
-        diagnose(str(path), 'free_stroke', progress=False)
+        diagnose(str(path), 'free_stroke', progress=False, model='cst')
 
 
 def _write_record_bag(record, path):

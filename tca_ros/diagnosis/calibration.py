@@ -263,15 +263,9 @@ def defect_corrections(params, records, model, channels, supply='power'):
 
 def full_nrmse(params, records, model, supply='power'):
     """Return per-record RMSE / peak stroke (-) of the full dynamics (18) with ``params``."""
-    out = []
-    for r in records:
-        p = record_params(params, r)
-        rate = max(MIN_PHYSICS_RATE_HZ, r.sample_rate)
-        sim = simulate(p, r.time, r.power, r.load, model=model, physics_rate=rate,
-                       supply=supply)
-        rmse = float(np.sqrt(np.mean((r.displacement - sim.displacement) ** 2)))
-        out.append(rmse / peak_stroke(r))
-    return out
+    predictions = full_predictions(params, records, model, ['displacement'], supply)
+    return [float(np.sqrt(np.mean((r.displacement - p['displacement']) ** 2)))
+            / peak_stroke(r) for r, p in zip(records, predictions)]
 
 
 def calibrate(records, params, model=None, fit=None, progress=False, max_nfev=40,
@@ -320,7 +314,9 @@ def calibrate(records, params, model=None, fit=None, progress=False, max_nfev=40
     objective = engine.Objective(records, channels,
                                  predictor(start, model, channels, supply, corrections),
                                  weights=weights)
+    first_nfev = report.nfev
     report = engine.fit(objective, parameters, start=report.values, **options)
+    report.nfev += first_nfev
     bar.close()
     calibrated = apply_calibration(start, report.values)
     result = Calibration(start=start, params=calibrated, report=report, model=model,

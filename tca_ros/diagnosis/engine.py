@@ -257,16 +257,27 @@ def fit(objective, parameters, fixed=None, initial_scale=None, scale_floor=None,
 
 
 def _jacobian(fun, z, parameters):
-    """Return the forward-difference Jacobian of ``fun`` at ``z`` (steps inside the bounds)."""
+    """Return the forward-difference Jacobian of ``fun`` at ``z`` (steps inside the bounds).
+
+    A step whose simulation fails is taken the other way; a column that fails
+    both ways is NaN (its parameter's standard error is then unknown, not zero).
+    """
     f0 = fun(z)
     jac = np.empty((f0.size, z.size))
     for i, p in enumerate(parameters):
         h = DIFF_STEP * max(1.0, abs(z[i]))
-        if z[i] + h > p.fit_bounds()[1]:
-            h = -h
-        zi = z.copy()
-        zi[i] += h
-        jac[:, i] = (fun(zi) - f0) / h
+        low, high = p.fit_bounds()
+        column = None
+        for step in ((h, -h) if z[i] + h <= high else (-h, h)):
+            if not low <= z[i] + step <= high:
+                continue
+            zi = z.copy()
+            zi[i] += step
+            fi = fun(zi)
+            if not np.any(fi == FAILED_RESIDUAL):
+                column = (fi - f0) / step
+                break
+        jac[:, i] = np.nan if column is None else column
     return jac
 
 
@@ -302,7 +313,16 @@ def _solve(objective, free, fixed, z0, scale, factor, max_nfev, progress):
 
 
 def _covariance(jac):
-    """Return (J^T J)^-1 of the stacked (data + prior) residual; the prior keeps it regular."""
+    """Return (J^T J)^-1 of the stacked (data + prior) residual; the prior keeps it regular.
+
+    Rows and columns of parameters whose Jacobian column is unknown (NaN) are NaN.
+    """
+    known = np.all(np.isfinite(jac), axis=0)
+    if not np.all(known):
+        cov = np.full((jac.shape[1], jac.shape[1]), np.nan)
+        if np.any(known):
+            cov[np.ix_(known, known)] = _covariance(jac[:, known])
+        return cov
     jtj = jac.T @ jac
     try:
         return np.linalg.inv(jtj)

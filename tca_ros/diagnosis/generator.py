@@ -26,7 +26,10 @@ from tca_ros.model.params import GRAVITY, load_params
 #: nylon 0.5-0.95; laminar natural convection exponent 1/4 (Masuya et al. 2017);
 #: modulus loss of 10-40 % by 150 degC (Demsar et al. 2010); LVDT / laser sensor
 #: filters of 0.1-1 s; lab ambient differing by 2-8 K from the 25 degC assumed; 5-30 %
-#: of the drive power lost in leads, contacts and the clamps.
+#: of the drive power lost in leads, contacts and the clamps; drive dead times of
+#: 0.4-2 s and second thermal lags of 1-5 s (the real mandrel-coiled records of
+#: ../shared/realdata start moving 1-4 s after the power); pulley friction of
+#: 10-40 mN (the 1-3 mm steps and residual offsets of those records at k ~ 10 N/m).
 EFFECT_RANGES = {
     'effects.creep_compliance': (0.004, 0.015, True),
     'effects.creep_time_constant': (15.0, 60.0, True),
@@ -37,6 +40,9 @@ EFFECT_RANGES = {
     'effects.sensor_lag': (0.15, 1.0, True),
     'effects.ambient_offset': (2.0, 8.0, False),  # sign drawn separately
     'effects.power_loss_fraction': (0.08, 0.3, False),
+    'effects.dead_time': (0.4, 2.0, False),  # switching and controller delays of a drive
+    'effects.second_thermal_lag': (1.0, 5.0, True),  # core behind surface, thread behind heater
+    'effects.friction_force': (0.01, 0.04, True),  # pulley bearing / coil-on-coil sliding
 }
 CONTACT_STROKE_FRACTION = (0.6, 0.85)  # the stop cuts the peak contraction to this fraction
 CONTACT_ANGLE_MARGIN_DEG = 0.3  # keep alpha_min this far inside its allowed range (deg)

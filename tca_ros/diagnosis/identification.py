@@ -3,6 +3,7 @@
 ``diagnose`` is what ``tca_sim diagnose DATA --config ... [--report DIR]`` runs;
 ``format_summary`` is its one-screen stdout summary.
 """
+import dataclasses
 from dataclasses import dataclass, field
 import math
 import os
@@ -60,6 +61,9 @@ class DiagnosisResult:
     json_path: str = None
     figures: list = field(default_factory=list)
     untestable: list = field(default_factory=list)  # candidates this record cannot test
+    helpful: list = field(default_factory=list)  # improve the fit, not named as cause
+    calibration: object = None  # Calibration of the nominal parameters, or None
+    notes: list = field(default_factory=list)
 
     @property
     def success(self):
@@ -89,6 +93,11 @@ class DiagnosisResult:
         nominal = self.rounds[0].base_rmse['displacement'] if self.rounds else math.nan
         return {
             'effects': list(self.effects),
+            'helpful': list(self.helpful),
+            'model': self.model,
+            'calibrated': ({k: v.as_dict() for k, v in
+                            self.calibration.report.estimates.items()}
+                           if self.calibration is not None else None),
             'candidates': [{'name': s.name, 'params': dict(s.fit.params),
                             'heldout_rmse': s.heldout_rmse['displacement'],
                             'gain_percent': gain(nominal, s.heldout_rmse['displacement'])}
@@ -145,8 +154,9 @@ def decide_verdict(effects, nominal_stats, extended_stats):
                            f'{caution}')
 
 
-def diagnose(data_path, config=None, report_dir=None, model='cst', progress=True,
-             physics_rate=None, fit_rate=None, train_fraction=None):
+def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
+             physics_rate=None, fit_rate=None, train_fraction=None, calibrate_first=True,
+             calibrated=None, supply='power'):
     """Diagnose a measured record against the nominal model; return a DiagnosisResult.
 
     Parameters
@@ -157,14 +167,24 @@ def diagnose(data_path, config=None, report_dir=None, model='cst', progress=True
         Nominal params file (path or shipped name); default the record's ``tca``.
     report_dir : str, optional
         Write report.md, PNG figures, diagnosis.json and extended_params.yaml here.
-    model : str
-        Kinetostatic model of the fits (rod | cst | love).
+    model : str, optional
+        Kinetostatic model of the fits (rod | cst | love); default the config's.
     progress : bool
         Draw a progress bar on stderr.
     physics_rate, fit_rate : float, optional
         Physics rate (Hz, default max(200 Hz, sample rate)) and fit-grid rate (Hz).
     train_fraction : float, optional
         Leading share of the record used for fitting (default 0.7).
+    calibrate_first : bool
+        Calibrate the nominal parameters a maker cannot measure on the training
+        part (calibration.py) before searching effects, so that effects are
+        judged against the best nominal model and what a recalibration absorbs is
+        not reported as an effect.
+    calibrated : str, optional
+        A params file from `tca_sim calibrate` to take as the nominal model
+        instead (no calibration here); its geometry replaces the config's.
+    supply : str
+        'power' or 'voltage': what the power column is (calibration.py).
 
     Raises
     ------
@@ -191,15 +211,24 @@ def diagnose(data_path, config=None, report_dir=None, model='cst', progress=True
     else:
         record = read_record(data_path)
     config = config or record_config(record)
+    nominal_source = calibrated or config
+    model = model or load_params(nominal_source).model
     # the extended params file must name the model its effects were fitted with
-    params = load_params(config, model=model,
+    params = load_params(nominal_source, model=model,
                          **{'dynamics.mass': record.mass,
                             'dynamics.load': float(record.load[0])})
+    fraction = train_fraction or fitting.TRAIN_FRACTION
+    cal, notes = None, []
+    if calibrated:
+        notes.append(f'nominal parameters from the calibrated params file {calibrated}')
+    elif calibrate_first:
+        cal, params, note = _calibrate_training_part(record, params, model, fraction, supply,
+                                                     progress)
+        notes.append(note)
     bar = Progress(progress, EXPECTED_SIMULATIONS)
     problem = FitProblem(record, params, model=model, physics_rate=physics_rate,
                          fit_rate=fit_rate or fitting.FIT_RATE_HZ,
-                         train_fraction=train_fraction or fitting.TRAIN_FRACTION,
-                         progress=bar)
+                         train_fraction=fraction, progress=bar)
     bar.label = 'nominal'
     try:
         nominal = problem.set_base({})
@@ -232,9 +261,14 @@ def diagnose(data_path, config=None, report_dir=None, model='cst', progress=True
     nominal_stats = channel_stats(problem, nominal)
     extended_stats = channel_stats(problem, extended)
     verdict, explanation = decide_verdict(effects, nominal_stats, extended_stats)
+    helpful = []
+    if verdict == 'unexplained' and effects:
+        # what helps is shown, but an effect that leaves structure is not a cause
+        helpful, effects = list(effects), []
     result = DiagnosisResult(
         record=record, config=config, model=model, params=params,
-        extended_params=problem.parameters(values), effects=effects,
+        extended_params=problem.parameters(values), effects=effects, helpful=helpful,
+        calibration=cal, notes=notes,
         extended_values=values, rounds=rounds, nominal=nominal, extended=extended,
         nominal_rmse=nominal_rmse, extended_rmse=extended_rmse,
         nominal_stats=nominal_stats, extended_stats=extended_stats,
@@ -246,6 +280,27 @@ def diagnose(data_path, config=None, report_dir=None, model='cst', progress=True
         from tca_ros.diagnosis.report import write_report
         write_report(result, report_dir)
     return result
+
+
+def _calibrate_training_part(record, params, model, fraction, supply, progress):
+    """Return (Calibration or None, params, note): the nominal model fitted on training."""
+    from tca_ros.diagnosis.calibration import calibrate, CalibrationError, record_params
+    from tca_ros.model.quasistatic import QuasiStaticUnsupported
+    split = int(np.searchsorted(record.time, record.time[0] + fraction * record.duration))
+    head = dataclasses.replace(
+        record, time=record.time[:split], power=record.power[:split],
+        load=record.load[:split], displacement=record.displacement[:split],
+        temperature=None if record.temperature is None else record.temperature[:split],
+        resistance=None if record.resistance is None else record.resistance[:split])
+    try:
+        cal = calibrate([head], params, model=model, check=False, supply=supply,
+                        progress=progress)
+    except (CalibrationError, QuasiStaticUnsupported, ValueError, ArithmeticError) as exc:
+        return None, params, f'calibration skipped ({str(exc).splitlines()[0]})'
+    fitted = [e.name for e in cal.report.estimates.values() if e.determined]
+    note = ('nominal parameters calibrated on the training part: '
+            + (', '.join(fitted) if fitted else 'none determined'))
+    return cal, record_params(cal.params, record).with_values(model=model), note
 
 
 def _format_value(name, value):
@@ -307,6 +362,11 @@ def format_summary(result):
                                       for k, v in result.extended_values.items()))
     else:
         lines.append('effects found: none')
+    if result.helpful:
+        lines.append('improve the fit but leave structure (not a cause): '
+                     + ', '.join(result.helpful))
+    for note in result.notes:
+        lines.append(f'note: {note}')
     for c in channels:
         before = _format_rmse(c, result.nominal_rmse[c]).strip()
         after = _format_rmse(c, result.extended_rmse[c]).strip()

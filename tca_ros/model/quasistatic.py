@@ -426,6 +426,8 @@ class QuasiStaticPlant:
             return entry
 
         def lookup(load, t_fiber):
+            if not math.isfinite(t_fiber):
+                raise ArithmeticError(f'voltage supply: temperature {t_fiber!r} degC')
             g0, dg, y, k = table(load, t_fiber)
             u = max((t_fiber - g0) / dg, 0.0)
             i = min(int(u), y.size - 2)

@@ -1,0 +1,59 @@
+"""The diagnosis on records the project's generator did not make.
+
+A random muscle (geometry +-30 %, unmeasurable parameters drawn independently),
+simulated with the full central-difference dynamics at 500 Hz, logged at 5 Hz as
+a bench logs it (nominal on/off power, AR(1) + white noise, encoder
+quantisation, no temperature): the diagnosis calibrates the nominal parameters
+on the training part first, so a record with no effect in it names none.
+"""
+import json
+
+import numpy as np
+
+from tca_ros.diagnosis import diagnose, format_summary
+from tca_ros.diagnosis.data import write_csv_record
+from tca_ros.diagnosis.realistic import bench_record, realistic_set
+from tca_ros.model.dynamics import simulate
+from tca_ros.model.params import dump_params, GRAVITY
+
+
+def _null_record(tmp_path, seed):
+    s = realistic_set(seed, drift=0.0)
+    rng = np.random.default_rng(seed + 100)
+    # one longer record with two steps, so the held-out part has a heating of its own
+    r = bench_record(s.truth, max(r.power.max() for r in s.records), 0.02, rng,
+                     duration=120.0, on=(10.0, 40.0), drift=0.0)
+    second = (r.time >= 70.0) & (r.time < 100.0)
+    r.power = np.where(second, 0.6 * r.power.max(), r.power)
+    start = tmp_path / 'start.yaml'
+    dump_params(s.start, str(start))
+    path = tmp_path / f'null_{seed}.csv'
+    # re-simulate with the two-step profile
+    truth = s.truth.with_values(**{'dynamics.mass': 0.02, 'dynamics.load': 0.02 * GRAVITY})
+    sim = simulate(truth, r.time, r.power, r.load, model='cst', physics_rate=500.0)
+    noise = 20e-6 * rng.standard_normal(r.time.size)
+    r.displacement = np.round((sim.displacement + noise) / 8.4e-6) * 8.4e-6
+    r.meta['tca'] = str(start)
+    write_csv_record(r, str(path))
+    return str(path), str(start)
+
+
+def test_null_record_of_a_perturbed_muscle_names_no_effect(tmp_path):
+    path, start = _null_record(tmp_path, 11)
+    result = diagnose(path, start, progress=False, model='cst',
+                      report_dir=str(tmp_path / 'rep'))
+    print(format_summary(result))
+    assert result.calibration is not None
+    assert result.calibration.report.estimates['thermal_time_constant'].determined
+    assert result.effects == []
+    doc = json.loads((tmp_path / 'rep' / 'diagnosis.json').read_text())
+    assert doc['effects'] == [] and doc['model'] == 'cst'
+    assert doc['calibrated']['thermal_time_constant']['determined'] is True
+
+
+def test_without_calibration_the_same_record_blames_effects(tmp_path):
+    # the control: against the uncalibrated start, the perturbed muscle looks like effects
+    path, start = _null_record(tmp_path, 11)
+    result = diagnose(path, start, progress=False, model='cst', calibrate_first=False)
+    print(format_summary(result))
+    assert result.effects or result.helpful or result.verdict == 'unexplained'
