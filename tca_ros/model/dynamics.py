@@ -137,7 +137,6 @@ class TcaSimulator:
         self.reference_elongation = self.equilibrium(load, self._ambient)
         self.loaded_length = self.kinetostatics.natural_length + self.reference_elongation
         self._drive = collections.deque()  # (start time (s), power (W)) for the dead time
-        self._delayed_power = 0.0  # W, the drive's output during the dead time
         self.state = TcaState(time=0.0, temperature=temp, actuation_temperature=temp,
                               fiber_temperature=temp,
                               elongation=q, previous_elongation=q, load=load)
@@ -342,18 +341,30 @@ class TcaSimulator:
         return y_c + model.equilibrium_elongation(load + force, temp, guess=q - y_c)
 
     def _delayed(self, power, h):
-        """Return the power (W) commanded effects.dead_time (s) ago (the drive's delay).
+        """Return the mean power (W) over [t - d, t - d + h]: the drive's dead time d (s).
 
-        Zero before the delayed signal starts; exact for steps that divide the delay.
+        The commanded power is held over each step; before the first command it is
+        zero. Averaging over the delayed interval keeps the heat delivered and
+        makes the result continuous in d (a fit can move d by less than a step).
         """
         delay = self.params.effects.dead_time
         if delay <= 0.0:
             return power
         now = self.state.time
         self._drive.append((now, power))
-        while self._drive and self._drive[0][0] <= now - delay + 1e-9 * h:
-            self._delayed_power = self._drive.popleft()[1]
-        return self._delayed_power
+        start, end = now - delay, now - delay + h
+        # drop segments that ended before the interval (a segment ends where the next starts)
+        while len(self._drive) > 1 and self._drive[1][0] <= start:
+            self._drive.popleft()
+        energy = 0.0
+        for i, (t0, p) in enumerate(self._drive):
+            t1 = self._drive[i + 1][0] if i + 1 < len(self._drive) else math.inf
+            overlap = min(t1, end) - max(t0, start)
+            if overlap > 0.0:
+                energy += p * overlap
+            if t1 >= end:
+                break
+        return energy / h
 
     def _backward_euler(self, q, y_c, load, temp, damping, h):
         """Return q_{i+1} of b (q_{i+1} - q_i)/h + f_rod(q_{i+1}) = F (Newton)."""
