@@ -143,7 +143,10 @@ def test_signals_end_the_node_cleanly_every_time(tmp_path, sig):
         for topic, kind in (('joint_states', JointState), ('temperature', Temperature)):
             probe.record(topic, kind)
         for i in range(STOP_LOOPS):
-            node = start_tca(tmp_path, '-p', 'publish_rate:=1000.0', name=f'stop{i}')
+            # alternately wall-clock ticks at 1 kHz and the own clock as fast as possible
+            mode = ['publish_rate:=1000.0'] if i % 2 == 0 else [
+                'publish_clock:=true', '-p', 'real_time_factor:=0.0']
+            node = start_tca(tmp_path, '-p', *mode, name=f'stop{i}')
             probe.spin_for(0.05 * (i % 5))
             code = _stop_with(node, sig)
             log = node.log()
