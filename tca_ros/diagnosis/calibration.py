@@ -309,14 +309,20 @@ def calibrate(records, params, model=None, fit=None, progress=False, max_nfev=40
     report = engine.fit(objective, parameters, **options)
     # defect correction: refit with the full dynamics' difference at the estimate
     # added, so the result fits the model the user runs, not its reduction
-    corrections = defect_corrections(apply_calibration(start, report.values), records,
-                                     model, channels, supply)
-    objective = engine.Objective(records, channels,
-                                 predictor(start, model, channels, supply, corrections),
-                                 weights=weights)
-    first_nfev = report.nfev
-    report = engine.fit(objective, parameters, start=report.values, **options)
-    report.nfev += first_nfev
+    try:
+        corrections = defect_corrections(apply_calibration(start, report.values), records,
+                                         model, channels, supply)
+    except (ValueError, ArithmeticError, RuntimeError) as exc:
+        corrections = None
+        notes.append('the full dynamics cannot simulate the first estimate, so it is not '
+                     f'defect-corrected ({str(exc).splitlines()[0]})')
+    if corrections is not None:
+        objective = engine.Objective(records, channels,
+                                     predictor(start, model, channels, supply, corrections),
+                                     weights=weights)
+        first_nfev = report.nfev
+        report = engine.fit(objective, parameters, start=report.values, **options)
+        report.nfev += first_nfev
     bar.close()
     calibrated = apply_calibration(start, report.values)
     result = Calibration(start=start, params=calibrated, report=report, model=model,

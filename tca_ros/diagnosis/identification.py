@@ -285,6 +285,7 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
 def _calibrate_training_part(record, params, model, fraction, supply, progress):
     """Return (Calibration or None, params, note): the nominal model fitted on training."""
     from tca_ros.diagnosis.calibration import calibrate, CalibrationError, record_params
+    from tca_ros.model.kinetostatics import make_kinetostatic_model
     from tca_ros.model.quasistatic import QuasiStaticUnsupported
     split = int(np.searchsorted(record.time, record.time[0] + fraction * record.duration))
     head = dataclasses.replace(
@@ -297,10 +298,16 @@ def _calibrate_training_part(record, params, model, fraction, supply, progress):
                         progress=progress)
     except (CalibrationError, QuasiStaticUnsupported, ValueError, ArithmeticError) as exc:
         return None, params, f'calibration skipped ({str(exc).splitlines()[0]})'
+    calibrated = record_params(cal.params, record).with_values(model=model)
+    try:  # the stepper's model must exist for the calibrated values (the rod table)
+        make_kinetostatic_model(calibrated, model)
+    except (ValueError, ArithmeticError, RuntimeError) as exc:
+        return None, params, (f'calibration not used: the {model} model cannot represent '
+                              f'its result ({str(exc).splitlines()[0]})')
     fitted = [e.name for e in cal.report.estimates.values() if e.determined]
     note = ('nominal parameters calibrated on the training part: '
             + (', '.join(fitted) if fitted else 'none determined'))
-    return cal, record_params(cal.params, record).with_values(model=model), note
+    return cal, calibrated, note
 
 
 def _format_value(name, value):

@@ -96,6 +96,14 @@ def _helix_state(params, temperature, tension, rotation_locked=False):
     return eq
 
 
+class RodTableError(RuntimeError, ArithmeticError):
+    """The exact helices cannot fill the (elongation, temperature) table of a TCA.
+
+    An ArithmeticError too, so the fits that treat a model failure as a failed
+    candidate (ValueError, ArithmeticError) treat this one alike.
+    """
+
+
 @dataclass(frozen=True)
 class _Table:
     temp0: float
@@ -151,8 +159,8 @@ def _build_table(params, rotation_locked):
             step[-1] = -DERIVATIVE_STEP  # stay inside the piece at its right end
             dy = (helix_elongation(params, temp, f + step, rotation_locked) - y) / step
             if not (np.all(np.isfinite(y)) and np.all(dy > 0.0)):
-                raise RuntimeError(f'rod table: exact helix failed or lost monotonicity '
-                                   f'at T = {temp:g} degC')
+                raise RodTableError(f'rod table: exact helix failed or lost monotonicity '
+                                    f'at T = {temp:g} degC')
             row_y.append(y)
             row_dy.append(dy)
         ys.append(row_y)
