@@ -44,6 +44,7 @@ from tca_ros.model.thermal import heat_capacity, surface_area, thermal_conductan
 DEFAULT_FIT = ('thermal_time_constant', 'steady_rise', 'actuation_gain', 'stiffness_scale',
                'damping', 'delivered_power_ratio', 'resistance',
                'resistance_temperature_coef', 'resistance_strain_coef')
+OPTIONAL_FIT = ('friction_force',)  # fitted when named in ``fit`` (a diagnosis effect else)
 DISPLACEMENT_SCALE_FLOOR = 1e-6  # m, residual scale floor (a good encoder's resolution)
 MIN_PHYSICS_RATE_HZ = 200.0  # Hz, full-dynamics check
 NOMINAL_LEVELS = 2  # a power column with at most this many distinct values is nominal
@@ -83,6 +84,10 @@ def _priors(params, nominal_power, has_resistance, r0_measured=None, supply='pow
         out.append(engine.Parameter('resistance', 'ohm', r0, r0 / 10.0, r0 * 10.0,
                                     math.log(1.5),
                                     description='R0 at ambient and loaded length'))
+    # optional (--fit ...,friction_force): Coulomb friction of the load path (a pulley)
+    out.append(engine.Parameter('friction_force', 'N',
+                                max(params.effects.friction_force, 1e-3), 1e-5, 1.0,
+                                math.log(10.0), description='effects.friction_force'))
     if has_resistance or supply == 'voltage':
         out += [
             engine.Parameter('resistance_temperature_coef', '1/K', e.temperature_coefficient,
@@ -112,6 +117,7 @@ def apply_calibration(params, values):
         flat['thermal.convection_coefficient'] = conductance / area
         flat['fiber.specific_heat'] = tau * conductance / fiber_mass
     simple = {'actuation_gain': 'fiber.untwist_gain', 'damping': 'dynamics.damping',
+              'friction_force': 'effects.friction_force',
               'delivered_power_ratio': 'thermal.delivered_power_ratio',
               'resistance': 'electrical.resistance',
               'resistance_temperature_coef': 'electrical.temperature_coefficient',
@@ -288,10 +294,10 @@ def calibrate(records, params, model=None, fit=None, progress=False, max_nfev=40
     r0 = start.electrical.resistance
     priors = _priors(start, nominal, 'resistance' in channels, r0, supply)
     names = list(fit) if fit else list(DEFAULT_FIT)
-    unknown = [n for n in names if n not in DEFAULT_FIT]
+    unknown = [n for n in names if n not in DEFAULT_FIT + OPTIONAL_FIT]
     if unknown:
         raise CalibrationError(f'--fit {unknown[0]!r}: unknown; allowed: '
-                               + ', '.join(DEFAULT_FIT))
+                               + ', '.join(DEFAULT_FIT + OPTIONAL_FIT))
     parameters = [priors[n] for n in names if n in priors]
     if not nominal:
         notes.append('power varies beyond on/off: taken as measured, '

@@ -35,7 +35,8 @@ class HeldOut:
     lumped: float
 
 
-def leave_one_condition_out(records, params, model=None, progress=False, supply='power'):
+def leave_one_condition_out(records, params, model=None, progress=False, supply='power',
+                            fit=None):
     """Return (list of HeldOut, {condition: Calibration}) over every condition.
 
     Needs at least two conditions; a ValueError names the one condition otherwise.
@@ -52,7 +53,7 @@ def leave_one_condition_out(records, params, model=None, progress=False, supply=
         test = groups[cond]
         train = [r for c, rs in groups.items() if c != cond for r in rs]
         cal = calibrate(train, params, model=model, progress=progress, check=False,
-                        supply=supply)
+                        supply=supply, fit=fit)
         calibrations[cond] = cal
         calibrated = full_nrmse(cal.params, test, cal.model, supply)
         start = full_nrmse(cal.start, test, cal.model, supply)
