@@ -18,8 +18,9 @@ errors and an identifiability check (docs/calibration.md):
   down-weighted by n_eff / n from their lag-one autocorrelation, which inflates
   the covariance accordingly.
 * Standard errors come from the Gauss-Newton covariance of the stacked
-  residual. A parameter whose posterior spread is more than IDENTIFIABLE_RATIO of
-  its prior spread is "not determined by the records": the least determined one
+  residual. A parameter whose posterior spread is more than IDENTIFIABLE_RATIO
+  (1/sqrt(2)) of its prior spread, i.e. about which the records say less than its
+  prior does, is "not determined by the records": the least determined one
   is fixed at its prior, the others are refitted without it, and so on until
   every fitted parameter is determined (one at a time, because strongly
   correlated parameters are each uncertain while one of them fixed can
@@ -36,7 +37,9 @@ from scipy.optimize import least_squares
 
 from tca_ros.diagnosis.residuals import effective_samples, lag_one_autocorrelation
 
-IDENTIFIABLE_RATIO = 0.5  # posterior / prior spread above which a parameter is undetermined
+# posterior / prior spread above which a parameter is undetermined: 1/sqrt(2) is where the
+# records carry less information on it than its prior (data precision < prior precision)
+IDENTIFIABLE_RATIO = 1.0 / math.sqrt(2.0)
 FAILED_RESIDUAL = 1e3  # residual per sample (in sigma) when a prediction fails
 DIFF_STEP = 1e-3  # relative finite-difference step in fit coordinates
 REWEIGHT_PASSES = 2  # fits with re-estimated channel scales
