@@ -14,3 +14,15 @@ def free_stroke():
 def self_coiled():
     """Return the self-coiled TCA parameters (config/self_coiled.yaml)."""
     return load_params('self_coiled')
+
+
+#: Test files that start ROS nodes: one xdist worker runs them all, one at a time, so
+#: two nodes of different tests never share a DDS domain at once.
+ROS_TEST_PREFIXES = ('test_node', 'test_install_layout')
+
+
+def pytest_collection_modifyitems(config, items):
+    """Put every ROS test in one xdist group (``--dist loadgroup`` in the Makefile)."""
+    for item in items:
+        if item.path.name.startswith(ROS_TEST_PREFIXES):
+            item.add_marker(pytest.mark.xdist_group('ros'))
