@@ -72,3 +72,17 @@ def test_voltage_supply_follows_the_resistance_like_the_full_dynamics():
     assert np.sqrt(np.mean((full.displacement - fast.displacement) ** 2)) < 0.005 * stroke
     with pytest.raises(ValueError, match='supply'):
         simulate_quasistatic(p, t, power, supply='current')
+
+
+def test_a_load_ramp_is_interpolated_between_load_levels():
+    # 101 distinct loads: maps at LOAD_LEVELS loads, interpolated in load
+    p = load_params('free_stroke').with_values(**{'dynamics.mass': 0.02,
+                                                  'dynamics.load': 0.196})
+    t = np.arange(0.0, 120.0, 0.2)
+    power = np.where((t >= 20.0) & (t < 60.0), 1.0, 0.0)
+    load = 0.196 * (1.0 + 0.5 * np.clip((t - 70.0) / 20.0, 0.0, 1.0))
+    full = simulate(p, t, power, load, model='cst', physics_rate=1000.0)
+    fast = simulate_quasistatic(p, t, power, load, model='cst')
+    diff = full.displacement - fast.displacement
+    assert np.ptp(full.displacement) > 10e-3
+    assert np.sqrt(np.mean(diff ** 2)) < 5e-6 and np.abs(diff).max() < 40e-6

@@ -42,7 +42,8 @@ MAP_MARGIN = 4.0  # K beyond the lowest and highest temperature of a record
 MAP_EXTENSION = 30.0  # K added when a cached map must grow
 VOLTAGE_TABLE_STEP = 0.1  # K, fine table of the static map read by the voltage-drive loop
 STIFFNESS_LOAD_STEP = 1e-4  # relative load step for k = dF / dy of the static map
-MAX_DISTINCT_LOADS = 16  # static maps solved per simulation
+MAX_DISTINCT_LOADS = 16  # static maps solved per simulation; beyond, interpolated in load
+LOAD_LEVELS = 9  # maps spanning a load that takes more values (ramps)
 MAP_CACHE_SIZE = 64  # static maps kept between plants (a fit changes thermal values most)
 
 
@@ -320,7 +321,7 @@ class QuasiStaticPlant:
         # the load acting over [t_k, t_k+1) is load[k]; the equilibrium at t_k+1 uses it
         acting = np.concatenate(([load[0]], load[:-1]))
         distinct = np.unique(acting)
-        if distinct.size > MAX_DISTINCT_LOADS:
+        if distinct.size > MAX_DISTINCT_LOADS and supply == 'voltage':
             raise QuasiStaticUnsupported(
                 f'load takes {distinct.size} distinct values; the quasi-static reduction '
                 f'solves at most {MAX_DISTINCT_LOADS}: use dynamics.simulate')
@@ -381,11 +382,30 @@ class QuasiStaticPlant:
         return (-static, static, -e.friction_force, e.friction_force)
 
     def _equilibria(self, actuating, acting, distinct):
-        y_eq = np.empty_like(actuating)
-        stiffness = np.empty_like(actuating)
-        for value in distinct:
-            sel = acting == value
-            y_eq[sel], stiffness[sel] = self._lookup(float(value), actuating[sel])
+        """Return (y_eq (m), k (N/m)) per sample: exact maps per load, or interpolated.
+
+        Up to MAX_DISTINCT_LOADS load values each get their own map; a load that
+        takes more values (ramps) is interpolated linearly between maps at
+        LOAD_LEVELS loads spanning its range.
+        """
+        if distinct.size <= MAX_DISTINCT_LOADS:
+            y_eq = np.empty_like(actuating)
+            stiffness = np.empty_like(actuating)
+            for value in distinct:
+                sel = acting == value
+                y_eq[sel], stiffness[sel] = self._lookup(float(value), actuating[sel])
+            return y_eq, stiffness
+        levels = np.linspace(distinct[0], distinct[-1], LOAD_LEVELS)
+        maps = [self._lookup(float(level), actuating) for level in levels]
+        ys = np.array([m[0] for m in maps])
+        ks = np.array([m[1] for m in maps])
+        i = np.clip(np.searchsorted(levels, acting, side='right') - 1, 0, LOAD_LEVELS - 2)
+        w = (acting - levels[i]) / (levels[i + 1] - levels[i])
+        cols = np.arange(acting.size)
+        y_eq = ys[i, cols] + w * (ys[i + 1, cols] - ys[i, cols])
+        with np.errstate(invalid='ignore'):
+            stiffness = np.where(np.isfinite(ks[i, cols]) & np.isfinite(ks[i + 1, cols]),
+                                 ks[i, cols] + w * (ks[i + 1, cols] - ks[i, cols]), math.inf)
         return y_eq, stiffness
 
     def _voltage_drive(self, time, power, acting):
