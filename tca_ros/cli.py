@@ -15,10 +15,10 @@ import warnings
 
 import numpy as np
 
+from tca_ros.cli_common import checked_config, InputError
 from tca_ros.diagnosis.data import ABSOLUTE_ZERO_DEGC, clip, DataError, MAX_LOAD_N, \
     MAX_POWER_W, NUMBER, parse_number, read_text_lines
-from tca_ros.model.params import GRAVITY, load_params, MODELS, ParameterError, \
-    resolve_config
+from tca_ros.model.params import GRAVITY, load_params, MODELS, ParameterError
 
 EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT = 0, 1, 2
 MAX_TEMPERATURE_DEGC = 1000.0  # statics bound: nylon melts near 260 degC, so far above
@@ -31,17 +31,12 @@ MAX_OUTPUT_SAMPLES = 1_000_000  # simulate / diagnose samples: about 50 MB of ar
 MAX_SIM_STEPS = 300_000  # physics steps of one `simulate` run (5 min at 1 kHz)
 MAX_DIAGNOSE_STEPS = 100_000  # physics steps of one record-rate simulation in diagnose
 MAX_TEMPERATURES = 10_000  # statics rows (each a nonlinear solve, a rod shape if conical)
-MAX_CONFIG_BYTES = 1 << 20  # a params file is a few kB; refuse to parse megabytes of YAML
 MESSAGE_CHARS = 400  # an error line is cut here: never echo megabytes of input
 DIAGNOSIS_PHYSICS_HZ = 200.0  # diagnose's record-rate physics rate floor (fitting.py)
 DIAGNOSIS_FIT_HZ = 10.0  # diagnose's default fit-grid rate (fitting.FIT_RATE_HZ)
 MIN_FIT_SAMPLES = 20  # fit-grid samples a diagnosis needs (data.MIN_SAMPLES)
 CHECKED_COMMANDS = ('statics', 'simulate', 'diagnose')  # outputs checked finite, so
 # numpy's RuntimeWarnings (multi-line, on stderr) are silenced for them
-
-
-class InputError(ValueError):
-    """Bad command-line input; the message is one line."""
 
 
 class CliParser(argparse.ArgumentParser):
@@ -146,18 +141,6 @@ def resample_hold(t_in, values, t_out):
 
 
 # -- subcommands ---------------------------------------------------------------------
-def checked_config(name_or_path, option='--config'):
-    """Return the params file path of a config, refusing non-files and huge files."""
-    path = resolve_config(name_or_path)
-    if not os.path.isfile(path):
-        raise InputError(f'{option} = {clip(name_or_path)!r}: not a regular file')
-    size = os.path.getsize(path)
-    if size > MAX_CONFIG_BYTES:
-        raise InputError(f'{option} = {clip(name_or_path)!r}: {size} bytes; a params file '
-                         f'is at most {MAX_CONFIG_BYTES} bytes')
-    return path
-
-
 def _params(args):
     overrides = {'model': args.model} if getattr(args, 'model', None) else {}
     return load_params(checked_config(args.config), **overrides)

@@ -44,7 +44,7 @@ def add_parser(subparsers):
 
 
 def _supply(args, records):
-    from tca_ros.cli import InputError
+    from tca_ros.cli_common import InputError
     if args.supply:
         return args.supply
     found = {str(r.meta.get('supply', 'power')).strip() for r in records}
@@ -60,7 +60,7 @@ def _supply(args, records):
 
 def cmd_calibrate(args, out):
     """Calibrate; print the summary; write the params file and the report."""
-    from tca_ros.cli import checked_config, InputError
+    from tca_ros.cli_common import checked_config, InputError
     from tca_ros.diagnosis.calibration import calibrate, CalibrationError, format_summary
     from tca_ros.diagnosis.data import read_record, record_config
     from tca_ros.model.params import dump_params, load_params

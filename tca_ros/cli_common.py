@@ -1,0 +1,27 @@
+"""What every `tca_sim` command module shares: the input error and the config check.
+
+Kept apart from cli.py so the command modules (cli_calibrate, ...) that cli.py
+registers need not import cli.py back.
+"""
+import os
+
+from tca_ros.diagnosis.data import clip
+from tca_ros.model.params import resolve_config
+
+MAX_CONFIG_BYTES = 1 << 20  # a params file is a few kB; refuse to parse megabytes of YAML
+
+
+class InputError(ValueError):
+    """Bad command-line input; the message is one line."""
+
+
+def checked_config(name_or_path, option='--config'):
+    """Return the params file path of a config, refusing non-files and huge files."""
+    path = resolve_config(name_or_path)
+    if not os.path.isfile(path):
+        raise InputError(f'{option} = {clip(name_or_path)!r}: not a regular file')
+    size = os.path.getsize(path)
+    if size > MAX_CONFIG_BYTES:
+        raise InputError(f'{option} = {clip(name_or_path)!r}: {size} bytes; a params file '
+                         f'is at most {MAX_CONFIG_BYTES} bytes')
+    return path
