@@ -20,6 +20,7 @@ from tca_ros.diagnosis.data import write_csv_record
 from tca_ros.diagnosis.lumped import fit_lumped, lumped_response
 from tca_ros.diagnosis.realistic import bench_record, realistic_set
 from tca_ros.model.dynamics import simulate
+from tca_ros.model.muscle import describe_muscle, MuscleSpec
 from tca_ros.model.params import dump_params, GRAVITY, load_params
 from tca_ros.model.thermal import heat_capacity, thermal_conductance
 
@@ -51,6 +52,21 @@ def test_recovers_identifiable_parameters_within_their_uncertainty(calibrations)
     assert z.size >= 3 * len(SEEDS)  # time constant, rise and gain at least, each seed
     assert np.mean(z <= COVERAGE_SIGMAS) >= MIN_COVERAGE, z
     assert z.max() <= MAX_SIGMAS, z
+
+
+def test_nylon6_monofilament_muscle_is_calibrated_too():
+    # the other thread preset: a fishing-line muscle described as a maker would
+    spec = MuscleSpec(thread='nylon6_monofilament', thread_diameter=0.5e-3, coil='mandrel',
+                      mandrel_diameter=1.5e-3, pitch_angle_deg=25.0, natural_length=0.04,
+                      resistance=10.0, mass=0.05, model='cst')
+    s = realistic_set(21, config=describe_muscle(spec).params, mass=0.05, drift=0.0)
+    cal = calibrate(s.records, s.start, model='cst', check=False)
+    assert cal.report.success, cal.report.message
+    for name, est in cal.report.estimates.items():
+        if est.determined:
+            truth = s.values.get(name, 1.0)
+            assert abs(est.value - truth) <= MAX_SIGMAS * est.stderr, (name, est, truth)
+    assert cal.report.estimates['thermal_time_constant'].determined
 
 
 def test_time_constant_is_determined_and_close(calibrations):

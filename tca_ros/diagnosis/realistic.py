@@ -42,11 +42,11 @@ class RealisticSet:
 def draw_muscle(rng, config='free_stroke', target_peak_c=130.0, powers=3):
     """Return (start params, truth params, true values, powers (W)) of a random muscle.
 
-    Geometry is drawn +-GEOMETRY_SPREAD around ``config`` and is known to the
-    start; the powers are chosen so the hottest step reaches about
-    ``target_peak_c`` (degC) in the truth.
+    Geometry is drawn +-GEOMETRY_SPREAD around ``config`` (a params file name or
+    path, or TcaParams) and is known to the start; the powers are chosen so the
+    hottest step reaches about ``target_peak_c`` (degC) in the truth.
     """
-    base = load_params(config)
+    base = load_params(config) if isinstance(config, str) else config
     f = lambda: 1.0 + rng.uniform(-GEOMETRY_SPREAD, GEOMETRY_SPREAD)  # noqa: E731
     radius = base.fiber.radius * f()
     coil = max(base.coil.radius * f(), 1.6 * radius)
