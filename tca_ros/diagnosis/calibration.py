@@ -44,6 +44,7 @@ from tca_ros.model.thermal import heat_capacity, surface_area, thermal_conductan
 DEFAULT_FIT = ('thermal_time_constant', 'steady_rise', 'actuation_gain', 'stiffness_scale',
                'damping', 'delivered_power_ratio', 'resistance',
                'resistance_temperature_coef', 'resistance_strain_coef')
+PEAK_PERCENTILE = 99.5  # % of a record's contraction taken as its peak (spike-robust)
 OPTIONAL_FIT = ('friction_force',)  # fitted when named in ``fit`` (a diagnosis effect else)
 DISPLACEMENT_SCALE_FLOOR = 1e-6  # m, residual scale floor (a good encoder's resolution)
 MIN_PHYSICS_RATE_HZ = 200.0  # Hz, full-dynamics check
@@ -162,7 +163,13 @@ def match_loaded_length(params, length, load, model=None):
 
 def peak_stroke(record):
     """Return the record's peak contraction (m), robust to single-sample spikes."""
-    return float(max(np.percentile(record.displacement, 99.5), 1e-6))
+    return float(max(np.percentile(record.displacement, PEAK_PERCENTILE), 1e-6))
+
+
+def normalised_rmse(record, displacement):
+    """Return RMSE / peak measured stroke (-) of a predicted ``displacement`` (m)."""
+    return float(np.sqrt(np.mean((record.displacement - displacement) ** 2))) \
+        / peak_stroke(record)
 
 
 @dataclass
@@ -179,6 +186,8 @@ class Calibration:
     records: list
     start_nrmse: list = field(default_factory=list)  # per record, full dynamics
     nrmse: list = field(default_factory=list)  # per record, full dynamics, calibrated
+    start_fit: list = field(default_factory=list)  # per record: full-dynamics contraction (m)
+    fit: list = field(default_factory=list)  # the same, calibrated
     notes: list = field(default_factory=list)
 
     def to_json(self):
@@ -270,8 +279,7 @@ def defect_corrections(params, records, model, channels, supply='power'):
 def full_nrmse(params, records, model, supply='power'):
     """Return per-record RMSE / peak stroke (-) of the full dynamics (18) with ``params``."""
     predictions = full_predictions(params, records, model, ['displacement'], supply)
-    return [float(np.sqrt(np.mean((r.displacement - p['displacement']) ** 2)))
-            / peak_stroke(r) for r, p in zip(records, predictions)]
+    return [normalised_rmse(r, p['displacement']) for r, p in zip(records, predictions)]
 
 
 def calibrate(records, params, model=None, fit=None, progress=False, max_nfev=40,
@@ -336,8 +344,12 @@ def calibrate(records, params, model=None, fit=None, progress=False, max_nfev=40
                          channels=channels, nominal_power=nominal, records=list(records),
                          notes=notes)
     if check:
-        result.start_nrmse = full_nrmse(start, records, model, supply)
-        result.nrmse = full_nrmse(calibrated, records, model, supply)
+        for params, fits, scores in ((start, result.start_fit, result.start_nrmse),
+                                     (calibrated, result.fit, result.nrmse)):
+            for r, p in zip(records, full_predictions(params, records, model,
+                                                      ['displacement'], supply)):
+                fits.append(p['displacement'])
+                scores.append(normalised_rmse(r, p['displacement']))
     return result
 
 

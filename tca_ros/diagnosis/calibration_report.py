@@ -2,15 +2,18 @@
 import math
 import os
 
-from tca_ros.diagnosis.calibration import MIN_PHYSICS_RATE_HZ, record_params
-from tca_ros.model.dynamics import simulate
+from tca_ros.diagnosis.calibration import full_predictions
 
 COLUMNS = 4  # subplots per row
 FIGURE_DPI = 100
 
 
 def write_calibration_report(cal, report_dir):
-    """Write ``records.png`` (one panel per record, mm over s); return its path."""
+    """Write ``records.png`` (one panel per record, mm over s); return its path.
+
+    Plots the full-dynamics fits ``calibrate`` scored (simulated here when it ran
+    without its check).
+    """
     import matplotlib
     matplotlib.use('Agg')
     import matplotlib.pyplot as plt
@@ -20,12 +23,14 @@ def write_calibration_report(cal, report_dir):
     fig, axes = plt.subplots(rows, cols, figsize=(4.0 * cols, 2.8 * rows), squeeze=False)
     for ax in axes.flat[n:]:
         ax.set_visible(False)
-    for ax, record in zip(axes.flat, cal.records):
-        rate = max(MIN_PHYSICS_RATE_HZ, record.sample_rate)
-        for params, style, label in ((cal.start, ':', 'start'), (cal.params, '-', 'calibrated')):
-            sim = simulate(record_params(params, record), record.time, record.power,
-                           record.load, model=cal.model, physics_rate=rate, supply=cal.supply)
-            ax.plot(sim.time, sim.displacement * 1e3, style, lw=1.2, label=label)
+    start_fit, fit = cal.start_fit, cal.fit
+    if not fit:
+        start_fit, fit = ([p['displacement'] for p in full_predictions(
+            params, cal.records, cal.model, ['displacement'], cal.supply)]
+            for params in (cal.start, cal.params))
+    for ax, record, before, after in zip(axes.flat, cal.records, start_fit, fit):
+        for displacement, style, label in ((before, ':', 'start'), (after, '-', 'calibrated')):
+            ax.plot(record.time, displacement * 1e3, style, lw=1.2, label=label)
         ax.plot(record.time, record.displacement * 1e3, 'k.', ms=2, label='measured')
         ax.set_title(os.path.basename(record.source or '?')[-40:], fontsize=8)
         ax.set_xlabel('time (s)')

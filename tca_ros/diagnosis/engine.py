@@ -198,6 +198,7 @@ def fit(objective, parameters, fixed=None, initial_scale=None, scale_floor=None,
     z = np.array([p.to_fit(start.get(p.name, p.prior)) for p in free])
     sol = None
     passes = REWEIGHT_PASSES
+    settled = None
     while True:
         for _ in range(passes):
             sol = _solve(objective, free, fixed, z, scale, factor, max_nfev, progress)
@@ -214,6 +215,7 @@ def fit(objective, parameters, fixed=None, initial_scale=None, scale_floor=None,
         ratios = [math.sqrt(max(cov[i, i], 0.0)) / p.spread for i, p in enumerate(free)]
         worst = int(np.argmax(ratios))
         if ratios[worst] <= IDENTIFIABLE_RATIO:
+            settled = cov, raw  # at the final values, with the final scales
             break
         # the least determined parameter goes back to its prior; the rest are refitted
         weak = free[worst]
@@ -225,16 +227,18 @@ def fit(objective, parameters, fixed=None, initial_scale=None, scale_floor=None,
         if not free:
             break
     values = _values(free, z, fixed)
-    raw = objective.raw_residuals(values)
     # standard errors from the posterior of every parameter (held ones with their
     # prior), so a value fitted while another was held at an uncertain prior
-    # carries that uncertainty too
+    # carries that uncertainty too; with none held, that is the last check's
     user_fixed = {k: v for k, v in fixed.items() if k not in undetermined}
     everything = [p for p in parameters if p.name not in user_fixed]
-    z_all = np.array([p.to_fit(values[p.name]) for p in everything])
-    jac = _jacobian(_residual_function(objective, everything, user_fixed, scale, factor,
-                                       progress), z_all, everything)
-    cov = _covariance(jac)
+    if settled is not None and not undetermined:
+        cov, raw = settled
+    else:
+        raw = objective.raw_residuals(values)
+        z_all = np.array([p.to_fit(values[p.name]) for p in everything])
+        cov = _covariance(_jacobian(_residual_function(
+            objective, everything, user_fixed, scale, factor, progress), z_all, everything))
     estimates = {}
     for i, p in enumerate(everything):
         sd = math.sqrt(max(cov[i, i], 0.0))

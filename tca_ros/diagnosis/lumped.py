@@ -16,6 +16,7 @@ import math
 import numpy as np
 
 from tca_ros.diagnosis import engine
+from tca_ros.diagnosis.calibration import normalised_rmse, peak_stroke
 from tca_ros.model.quasistatic import delayed_input, first_order_response
 
 
@@ -29,8 +30,7 @@ def lumped_response(time, power, gain, tau, delay):
 
 def lumped_parameters(records):
     """Return the engine Parameters of the lumped model, priors from the records."""
-    gains = [np.percentile(r.displacement, 99.5) / max(float(r.power.max()), 1e-9)
-             for r in records]
+    gains = [peak_stroke(r) / max(float(r.power.max()), 1e-9) for r in records]
     gain = max(float(np.median(gains)), 1e-6)
     return [
         engine.Parameter('gain', 'm/W', gain, gain / 100.0, gain * 100.0, math.log(10.0),
@@ -50,7 +50,7 @@ def predict_lumped(values, records):
 
 def fit_lumped(records, max_nfev=60):
     """Fit the lumped model jointly on ``records``; return the engine FitReport."""
-    peaks = [max(float(np.percentile(r.displacement, 99.5)), 1e-6) for r in records]
+    peaks = [peak_stroke(r) for r in records]
     median_peak = float(np.median(peaks))
     objective = engine.Objective(records, ['displacement'], predict_lumped,
                                  weights=[p / median_peak for p in peaks])
@@ -61,8 +61,5 @@ def fit_lumped(records, max_nfev=60):
 
 def lumped_nrmse(values, records):
     """Return per-record RMSE / peak stroke (-) of the lumped model with ``values``."""
-    out = []
-    for r, pred in zip(records, predict_lumped(values, records)):
-        rmse = float(np.sqrt(np.mean((r.displacement - pred['displacement']) ** 2)))
-        out.append(rmse / max(float(np.percentile(r.displacement, 99.5)), 1e-6))
-    return out
+    return [normalised_rmse(r, pred['displacement'])
+            for r, pred in zip(records, predict_lumped(values, records))]
