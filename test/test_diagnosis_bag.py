@@ -18,7 +18,7 @@ def _stamp(store, ns):
     return store.types['builtin_interfaces/msg/Time'](sec=ns // 10**9, nanosec=ns % 10**9)
 
 
-def write_stamped_bag(path, load_step=True, stamped=True):
+def write_stamped_bag(path, load_step=True, stamped=True, joints=('tca_joint',)):
     """Write the node's topics: joint_states and temperature stamped, commands not.
 
     Message i is stamped SIM_T0 + i / RATE and received LATENCY[i % 2] later on the
@@ -43,8 +43,9 @@ def write_stamped_bag(path, load_step=True, stamped=True):
             stamp = SIM_T0 + int(i * 1e9 / RATE) if stamped else 0
             header = T['std_msgs/msg/Header'](stamp=_stamp(store, stamp), frame_id='')
             joint = T['sensor_msgs/msg/JointState'](
-                header=header, name=['tca_joint'], position=np.array([1e-4 * i]),
-                velocity=np.array([0.0]), effort=np.array([0.0]))
+                header=header, name=list(joints),
+                position=np.array([1e-4 * i * (j + 1) for j in range(len(joints))]),
+                velocity=np.zeros(len(joints)), effort=np.zeros(len(joints)))
             writer.write(conns['joint_states'], receive(i), store.serialize_cdr(
                 joint, 'sensor_msgs/msg/JointState'))
             temp = T['sensor_msgs/msg/Temperature'](header=header, temperature=25.0 + 0.1 * i,
@@ -71,6 +72,17 @@ def test_load_step_survives_and_load_before_it_comes_from_the_config(tmp_path):
     # before the first power command: 0 W, not the command's value
     np.testing.assert_allclose(rec.power[:POWER_ON + 1], 0.0)
     np.testing.assert_allclose(rec.power[POWER_ON + 1:], 0.5)
+
+
+def test_a_namespaced_joint_is_found_among_others(tmp_path):
+    # two muscles merged into one joint_states: finger1's default joint name
+    bag = tmp_path / 'bag'
+    write_stamped_bag(bag, joints=('finger2/elbow', 'finger1/tca_joint'))
+    rec = read_bag_record(str(bag), tca='free_stroke', mass_kg=0.03)
+    np.testing.assert_allclose(rec.displacement, 2e-4 * np.arange(N), rtol=0, atol=1e-12)
+    with pytest.raises(DataError, match="no joint 'tca_joint'"):
+        write_stamped_bag(tmp_path / 'two', joints=('a/tca_joint', 'b/tca_joint'))
+        read_bag_record(str(tmp_path / 'two'), tca='free_stroke', mass_kg=0.03)
 
 
 def test_without_a_config_the_load_before_the_first_message_is_mass_times_g(tmp_path):

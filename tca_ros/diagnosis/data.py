@@ -399,7 +399,7 @@ def read_bag_record(path, sample_rate=None, tca='', mass_kg=None, load=None,
     Topics are matched by their last name (``/finger1/joint_states`` counts as
     ``joint_states``). Displacement (m) is the position of ``joint_states``
     (sensor_msgs/JointState: the joint ``joint_name``, default the node's
-    ``tca_joint``, or its only joint) at its header stamps, or else the
+    ``tca_joint`` or ``<namespace>/tca_joint``, or its only joint) at its header stamps, or else the
     ``displacement`` topic (std_msgs/Float64) at its receive times. Temperature
     (sensor_msgs/Temperature, degC) is taken at its header stamps, on the same
     clock. ``power`` (the power the node applied) or else ``power_cmd`` (W) and
@@ -542,8 +542,12 @@ def _bag_value(name, msg, joint_name, path, row):
         return float(msg.data)
     names, position = list(msg.name), list(msg.position)
     wanted = joint_name or DEFAULT_JOINT
+    suffixed = [i for i, n in enumerate(names) if joint_name is None
+                and n.endswith('/' + DEFAULT_JOINT)]
     if wanted in names:
         index = names.index(wanted)
+    elif len(suffixed) == 1:
+        index = suffixed[0]  # a namespaced node's default name, e.g. finger1/tca_joint
     elif joint_name is None and len(position) == 1 and len(names) <= 1:
         index = 0  # a lone joint is the muscle, whatever its name
     else:
