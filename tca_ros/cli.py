@@ -326,31 +326,34 @@ def cmd_diagnose(args, out):
         raise InputError(f'--report = {clip(args.report)!r}: exists and is not a directory')
     if args.config:
         checked_config(args.config)
-    is_bag = os.path.isdir(args.data) or str(args.data).endswith('.mcap')
     fit_rate = None
-    if args.config or not is_bag:  # a bag without --config is refused by diagnose
+    for data in args.data:
+        is_bag = os.path.isdir(data) or str(data).endswith('.mcap')
+        if not (args.config or not is_bag):
+            continue  # a bag without --config is refused by diagnose
         # read once under the limits: diagnose re-reads the same file, as large as this
-        record = read_record(args.data, max_samples=args.max_samples)
+        record = read_record(data, max_samples=args.max_samples)
         if not args.config:
             checked_config(record_config(record), option="'# tca:' header")
         physics = max(DIAGNOSIS_PHYSICS_HZ, record.sample_rate)
         steps = record.duration * physics
         if not steps <= args.max_steps:
-            raise InputError(f'{args.data}: {record.duration:.4g} s at {physics:.4g} Hz '
+            raise InputError(f'{data}: {record.duration:.4g} s at {physics:.4g} Hz '
                              f'physics is {steps:.4g} steps per simulation; the limit is '
                              f'{args.max_steps} (--max-steps)')
         if record.duration * DIAGNOSIS_FIT_HZ + 1.0 < MIN_FIT_SAMPLES:
             fit_rate = record.sample_rate  # a short record is fitted at its own rate
     if args.calibrated:
         checked_config(args.calibrated, option='--calibrated')
-    result = diagnose(args.data, args.config, report_dir=args.report, model=args.model,
+    data = args.data[0] if len(args.data) == 1 else args.data
+    result = diagnose(data, args.config, report_dir=args.report, model=args.model,
                       progress=not args.quiet, fit_rate=fit_rate,
                       calibrate_first=not args.no_calibrate, calibrated=args.calibrated,
                       supply=args.supply)
     for name, rmse in (('nominal', result.nominal_rmse), ('extended', result.extended_rmse)):
         for channel, value in rmse.items():
             if not math.isfinite(value):
-                raise ValueError(f'{args.data}: the {name} model gives a held-out '
+                raise ValueError(f'{args.data[0]}: the {name} model gives a held-out '
                                  f'{channel} RMSE of {value!r}')
     out.write(format_summary(result) + '\n')
     return EXIT_OK if result.success else EXIT_FAILED
@@ -413,7 +416,9 @@ def build_parser():
 
     sp = sub.add_parser('diagnose', formatter_class=fmt,
                         help='find what the model gets wrong in a recording (CSV or MCAP)')
-    sp.add_argument('data', help='recording: CSV with # key: value header, or MCAP bag')
+    sp.add_argument('data', nargs='+',
+                    help='recording(s): CSV with # key: value header, or MCAP bag; several '
+                         'records of one muscle are diagnosed together (one calibration)')
     sp.add_argument('--config', default=None,
                     help="nominal params file (default: the recording's '# tca:' header)")
     sp.add_argument('--model', choices=MODELS, default=None,

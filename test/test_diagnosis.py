@@ -23,7 +23,7 @@ from tca_ros.model.params import load_params
 DURATION_S = 150.0  # long enough for creep retardation times up to 60 s
 RATE_HZ = 20.0
 EFFECTS = list(CATALOGUE)
-JSON_KEYS = {'effects', 'helpful', 'model', 'calibrated', 'candidates',
+JSON_KEYS = {'effects', 'helpful', 'records', 'model', 'calibrated', 'candidates',
              'nominal_heldout_rmse', 'extended_heldout_rmse', 'gain_percent',
              'extended_params', 'verdict'}
 

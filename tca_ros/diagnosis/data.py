@@ -399,8 +399,8 @@ def read_bag_record(path, sample_rate=None, tca='', mass_kg=None, load=None,
     Topics are matched by their last name (``/finger1/joint_states`` counts as
     ``joint_states``). Displacement (m) is the position of ``joint_states``
     (sensor_msgs/JointState: the joint ``joint_name``, default the node's
-    ``tca_joint`` or ``<namespace>/tca_joint``, or its only joint) at its header stamps, or else the
-    ``displacement`` topic (std_msgs/Float64) at its receive times. Temperature
+    ``tca_joint`` or ``<namespace>/tca_joint``, or its only joint) at its header
+    stamps, or else the ``displacement`` topic (std_msgs/Float64) at its receive times. Temperature
     (sensor_msgs/Temperature, degC) is taken at its header stamps, on the same
     clock. ``power`` (the power the node applied) or else ``power_cmd`` (W) and
     ``load`` (N; std_msgs/Float64, unstamped) are held from their receive times,

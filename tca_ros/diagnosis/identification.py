@@ -14,7 +14,7 @@ import numpy as np
 from tca_ros.diagnosis.candidates import build_candidates
 from tca_ros.diagnosis.data import read_record, record_config
 from tca_ros.diagnosis.fitting import FitProblem, Progress, search_effects
-from tca_ros.diagnosis.residuals import residual_stats, STRUCTURE_RATIO
+from tca_ros.diagnosis.residuals import residual_stats
 
 VERDICTS = ('explained', 'adequate', 'unexplained')
 UNITS = {'displacement': 'm', 'temperature': 'K'}
@@ -64,6 +64,7 @@ class DiagnosisResult:
     helpful: list = field(default_factory=list)  # improve the fit, not named as cause
     calibration: object = None  # Calibration of the nominal parameters, or None
     notes: list = field(default_factory=list)
+    records: list = field(default_factory=list)  # paths diagnosed together
 
     @property
     def success(self):
@@ -94,6 +95,7 @@ class DiagnosisResult:
         return {
             'effects': list(self.effects),
             'helpful': list(self.helpful),
+            'records': list(self.records),
             'model': self.model,
             'calibrated': ({k: v.as_dict() for k, v in
                             self.calibration.report.estimates.items()}
@@ -121,36 +123,93 @@ def heldout_rmse(record, sim, split, channels):
                                       - getattr(sim, c)[split:]) ** 2))) for c in channels}
 
 
-def channel_stats(problem, sim):
-    """Return {channel: ResidualStats} of ``sim`` on the held-out part (record rate)."""
-    r, s = problem.record, problem.full_split
-    temp = r.temperature if r.temperature is not None else sim.temperature
-    return {c: residual_stats(c, UNITS[c], getattr(r, c)[s:], getattr(sim, c)[s:],
-                              problem.sigma[c], problem.sample_rate, temp[s:])
-            for c in problem.channels}
+def pooled_heldout_rmse(problems, sims, channels):
+    """Return {channel: RMSE} over the held-out parts of all records (m, K)."""
+    out = {}
+    for c in channels:
+        res = np.concatenate([getattr(p.record, c)[p.full_split:] - getattr(s, c)[p.full_split:]
+                              for p, s in zip(problems, sims)])
+        out[c] = float(np.sqrt(np.mean(res ** 2)))
+    return out
+
+
+def channel_stats(problems, sims, params=None):
+    """Return {channel: ResidualStats} of ``sims`` on the held-out parts (record rate).
+
+    ``problems`` and ``sims`` are lists (one per record) or a single pair. Each
+    channel carries the residual-input independence test (noise.structure_test),
+    pooled over the records, against the input-driven signals of ``params``
+    (per record; default each problem's).
+    """
+    from tca_ros.diagnosis.noise import input_terms, structure_test
+    from tca_ros.model.thermal import thermal_time_constant
+    if not isinstance(problems, (list, tuple)):
+        problems, sims = [problems], [sims]
+        params = None if params is None else [params]
+    params = params or [p.params for p in problems]
+    out = {}
+    for c in problems[0].channels:
+        segments, measured_all, predicted_all, temp_all = [], [], [], []
+        swing = 0.0
+        for p, sim, par in zip(problems, sims, params):
+            r, s = p.record, p.full_split
+            measured, predicted = getattr(r, c), getattr(sim, c)
+            tau = thermal_time_constant(par.fiber, par.thermal)
+            rise = sim.temperature[s:] - par.thermal.ambient_temperature
+            terms = input_terms(predicted[s:], rise, r.power[s:], p.sample_rate, tau)
+            segments.append((measured[s:] - predicted[s:], terms, p.sample_rate))
+            swing = max(swing, float(np.percentile(measured, 99.0)
+                                     - np.percentile(measured, 1.0)))
+            measured_all.append(measured[s:])
+            predicted_all.append(predicted[s:])
+            temp = r.temperature if r.temperature is not None else sim.temperature
+            temp_all.append(temp[s:])
+        first = problems[0]
+        test = structure_test(segments, swing)
+        out[c] = residual_stats(c, UNITS[c], np.concatenate(measured_all),
+                                np.concatenate(predicted_all), first.sigma[c],
+                                first.sample_rate, np.concatenate(temp_all), structure=test)
+    return out
+
+
+def _structure_summary(stats):
+    """Return 'channel: predictable X of floor Y (p=...)' for each channel."""
+    parts = []
+    for st in stats.values():
+        t = st.structure
+        if t is None:
+            parts.append(f'{st.channel} RMS/sigma {st.ratio:.2f}')
+            continue
+        scale, unit = (1e6, 'um') if st.unit == 'm' else (1.0, st.unit)
+        parts.append(f'{st.channel}: input-predictable {t.predictable_rms * scale:.3g} {unit} '
+                     f'(floor {t.floor * scale:.3g} {unit}, p={t.p_value:.2g}), '
+                     f'noise {t.noise_rms * scale:.3g} {unit}')
+    return '; '.join(parts)
 
 
 def decide_verdict(effects, nominal_stats, extended_stats):
     """Return (verdict, one-sentence explanation) from the residual structure.
 
-    'adequate': nothing added and the nominal residual is within noise;
-    'explained': effects added and the extended residual is within noise;
-    'unexplained': structure beyond STRUCTURE_RATIO noise sigmas remains.
+    A channel is structured when the inputs still predict a practically relevant
+    part of its held-out residual (noise.structure_test; the noise may be
+    coloured, drifting or quantised). 'adequate': nothing added and no channel
+    structured; 'explained': effects added and no channel structured;
+    'unexplained': structure remains.
     """
     stats = extended_stats if effects else nominal_stats
-    worst = max(stats.values(), key=lambda st: st.ratio)
-    ratios = ', '.join(f'{st.channel} {st.ratio:.2f}' for st in stats.values())
-    if not worst.structured:
+    structured = [st.channel for st in stats.values() if st.structured]
+    summary = _structure_summary(stats)
+    if not structured:
         if effects:
-            return 'explained', (f'held-out residual RMS within noise after adding '
-                                 f'{" + ".join(effects)} (RMS/sigma: {ratios})')
-        return 'adequate', (f'no candidate improves the held-out fit significantly and the '
-                            f'nominal residual is within noise (RMS/sigma: {ratios})')
+            return 'explained', (f'what remains after adding {" + ".join(effects)} does not '
+                                 f'depend on the inputs ({summary})')
+        return 'adequate', ('no candidate improves the held-out fit significantly and what '
+                            f'remains does not depend on the inputs ({summary})')
     what = ('after adding ' + ' + '.join(effects)) if effects else 'and no candidate helps'
     caution = ('; the effects added improve the fit but do not explain the data, so do not '
                'read them as its cause') if effects else ''
-    return 'unexplained', (f'unexplained structure remains {what}: held-out residual RMS '
-                           f'above {STRUCTURE_RATIO:g} noise sigma (RMS/sigma: {ratios})'
+    return 'unexplained', (f'unexplained structure remains {what}: the inputs still predict '
+                           f'the held-out residual of {", ".join(structured)} ({summary})'
                            f'{caution}')
 
 
@@ -161,8 +220,10 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
 
     Parameters
     ----------
-    data_path : str
-        CSV (``# key: value`` header) or rosbag2 recording (see data.py).
+    data_path : str or list of str
+        CSV (``# key: value`` header) or rosbag2 recording (see data.py); a list
+        diagnoses several records of one muscle together (one calibration on
+        their training parts, shared effect parameters, pooled held-out scores).
     config : str, optional
         Nominal params file (path or shipped name); default the record's ``tca``.
     report_dir : str, optional
@@ -195,71 +256,69 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
     DiagnosisError
         The nominal simulation fails on this record (exit 1).
     """
-    from tca_ros.diagnosis.data import read_bag_record
     from tca_ros.model.params import load_params
     from tca_ros.diagnosis import fitting
+    from tca_ros.diagnosis.problem_set import FitProblemSet
 
     start = wallclock.perf_counter()
-    is_bag = os.path.isdir(data_path) or str(data_path).endswith('.mcap')
-    if is_bag:
-        if config is None:
-            from tca_ros.diagnosis.data import DataError
-            raise DataError(f'{data_path}: row 1, column {"tca"!r}: a rosbag2 recording '
-                            'carries no config name; pass --config')
-        base = load_params(config)
-        record = read_bag_record(data_path, tca=config, mass_kg=base.dynamics.mass)
-    else:
-        record = read_record(data_path)
+    paths = ([data_path] if isinstance(data_path, (str, os.PathLike))
+             else list(data_path))
+    records = [_read_any(p, config) for p in paths]
+    record = records[0]
     config = config or record_config(record)
     nominal_source = calibrated or config
     model = model or load_params(nominal_source).model
     # the extended params file must name the model its effects were fitted with
-    params = load_params(nominal_source, model=model,
-                         **{'dynamics.mass': record.mass,
-                            'dynamics.load': float(record.load[0])})
+    base = load_params(nominal_source, model=model)
+    params_of = [_record_nominal(base, r) for r in records]
     fraction = train_fraction or fitting.TRAIN_FRACTION
     cal, notes = None, []
+    if len(records) > 1:
+        notes.append(f'{len(records)} records of one muscle diagnosed together: one '
+                     'calibration, shared effect parameters, each record split in time')
     if calibrated:
         notes.append(f'nominal parameters from the calibrated params file {calibrated}')
     elif calibrate_first:
-        cal, params, note = _calibrate_training_part(record, params, model, fraction, supply,
-                                                     progress)
+        cal, params_of, note = _calibrate_training_part(records, params_of, model, fraction,
+                                                        supply, progress)
         notes.append(note)
-    bar = Progress(progress, EXPECTED_SIMULATIONS)
-    problem = FitProblem(record, params, model=model, physics_rate=physics_rate,
-                         fit_rate=fit_rate or fitting.FIT_RATE_HZ,
-                         train_fraction=fraction, progress=bar)
+    params = params_of[0]
+    bar = Progress(progress, EXPECTED_SIMULATIONS * len(records))
+    problems = [FitProblem(r, p, model=model, physics_rate=physics_rate,
+                           fit_rate=fit_rate or fitting.FIT_RATE_HZ,
+                           train_fraction=fraction, progress=bar)
+                for r, p in zip(records, params_of)]
+    try:
+        problem = problems[0] if len(problems) == 1 else FitProblemSet(problems)
+    except ValueError as exc:
+        from tca_ros.diagnosis.data import DataError
+        bar.close()
+        raise DataError(f'{paths[1]}: row 1, column {"temperature"!r}: {exc}') from None
     bar.label = 'nominal'
     try:
-        nominal = problem.set_base({})
+        problem.set_base({})
+        nominals = [p.simulate_full({}) for p in problems]
     except (ValueError, ArithmeticError) as exc:  # StabilityError is a ValueError
         bar.close()
         raise DiagnosisError(f'{data_path}: the nominal model cannot simulate this record '
                              f'with model={model} ({exc})') from None
-    initial = None
-    if record.temperature is not None:
-        head = record.time <= record.time[0] + INITIAL_WINDOW_S
-        initial = float(np.median(record.temperature[head]))
-    train = slice(0, problem.full_split)
-    measured_peak = float(np.percentile(record.displacement[train], PEAK_PERCENTILE))
-    candidates = build_candidates(params, model, float(record.load[0]),
-                                  float(nominal.displacement[train].max()),
-                                  initial_temperature=initial, measured_peak=measured_peak)
+    candidates = _candidates(records, params, model, problems, nominals)
     untestable = [c.name for c in candidates if not c.starts]
     try:
         effects, values, rounds = search_effects(problem, candidates)
         bar.label = 'extended'
-        extended = problem.simulate_full(values) if effects else nominal
+        extendeds = [p.simulate_full(values) for p in problems] if effects else nominals
     except (ValueError, ArithmeticError) as exc:  # a candidate the stepper cannot run
         raise DiagnosisError(f'{data_path}: the effect search failed with model={model} '
                              f'({str(exc).splitlines()[0]})') from None
     finally:
         bar.close()
     channels = problem.channels
-    nominal_rmse = heldout_rmse(record, nominal, problem.full_split, channels)
-    extended_rmse = heldout_rmse(record, extended, problem.full_split, channels)
-    nominal_stats = channel_stats(problem, nominal)
-    extended_stats = channel_stats(problem, extended)
+    nominal_rmse = pooled_heldout_rmse(problems, nominals, channels)
+    extended_rmse = pooled_heldout_rmse(problems, extendeds, channels)
+    nominal_stats = channel_stats(problems, nominals)
+    extended_stats = channel_stats(problems, extendeds,
+                                   [p.parameters(values) for p in problems])
     verdict, explanation = decide_verdict(effects, nominal_stats, extended_stats)
     helpful = []
     if verdict == 'unexplained' and effects:
@@ -268,11 +327,11 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
     result = DiagnosisResult(
         record=record, config=config, model=model, params=params,
         extended_params=problem.parameters(values), effects=effects, helpful=helpful,
-        calibration=cal, notes=notes,
-        extended_values=values, rounds=rounds, nominal=nominal, extended=extended,
+        calibration=cal, notes=notes, records=[str(p) for p in paths],
+        extended_values=values, rounds=rounds, nominal=nominals[0], extended=extendeds[0],
         nominal_rmse=nominal_rmse, extended_rmse=extended_rmse,
         nominal_stats=nominal_stats, extended_stats=extended_stats,
-        sigma=dict(problem.sigma), split_time=float(record.time[problem.full_split]),
+        sigma=dict(problems[0].sigma), split_time=float(record.time[problems[0].full_split]),
         verdict=verdict, explanation=explanation, elapsed=0.0,
         n_simulations=bar.count, untestable=untestable)
     result.elapsed = wallclock.perf_counter() - start
@@ -282,28 +341,64 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
     return result
 
 
-def _calibrate_training_part(record, params, model, fraction, supply, progress):
-    """Return (Calibration or None, params, note): the nominal model fitted on training."""
+def _read_any(path, config):
+    """Return the Record of a CSV or a rosbag2 recording (a bag needs ``config``)."""
+    from tca_ros.diagnosis.data import DataError, read_bag_record
+    from tca_ros.model.params import load_params
+    if os.path.isdir(path) or str(path).endswith('.mcap'):
+        if config is None:
+            raise DataError(f'{path}: row 1, column {"tca"!r}: a rosbag2 recording '
+                            'carries no config name; pass --config')
+        return read_bag_record(path, tca=config, mass_kg=load_params(config).dynamics.mass)
+    return read_record(path)
+
+
+def _record_nominal(params, record):
+    """Return ``params`` with the record's mass (kg) and initial load (N)."""
+    return params.with_values(**{'dynamics.mass': record.mass,
+                                 'dynamics.load': float(record.load[0])})
+
+
+def _candidates(records, params, model, problems, nominals):
+    """Return the catalogue candidates with data-driven starts from the records."""
+    initial = None
+    temps = [r.temperature for r in records if r.temperature is not None]
+    if temps and len(temps) == len(records):
+        initial = float(np.median(np.concatenate([
+            r.temperature[r.time <= r.time[0] + INITIAL_WINDOW_S] for r in records])))
+    peaks = [float(np.percentile(r.displacement[:p.full_split], PEAK_PERCENTILE))
+             for r, p in zip(records, problems)]
+    model_peaks = [float(n.displacement[:p.full_split].max())
+                   for n, p in zip(nominals, problems)]
+    i = int(np.argmax(model_peaks))  # the record whose stroke a stop would cut first
+    return build_candidates(params, model, float(records[i].load[0]), model_peaks[i],
+                            initial_temperature=initial, measured_peak=peaks[i])
+
+
+def _calibrate_training_part(records, params_of, model, fraction, supply, progress):
+    """Return (Calibration or None, [params per record], note): nominal fitted on training."""
     from tca_ros.diagnosis.calibration import calibrate, CalibrationError, record_params
     from tca_ros.model.kinetostatics import make_kinetostatic_model
     from tca_ros.model.quasistatic import QuasiStaticUnsupported
-    split = int(np.searchsorted(record.time, record.time[0] + fraction * record.duration))
-    head = dataclasses.replace(
-        record, time=record.time[:split], power=record.power[:split],
-        load=record.load[:split], displacement=record.displacement[:split],
-        temperature=None if record.temperature is None else record.temperature[:split],
-        resistance=None if record.resistance is None else record.resistance[:split])
+    heads = []
+    for record in records:
+        split = int(np.searchsorted(record.time, record.time[0] + fraction * record.duration))
+        heads.append(dataclasses.replace(
+            record, time=record.time[:split], power=record.power[:split],
+            load=record.load[:split], displacement=record.displacement[:split],
+            temperature=None if record.temperature is None else record.temperature[:split],
+            resistance=None if record.resistance is None else record.resistance[:split]))
     try:
-        cal = calibrate([head], params, model=model, check=False, supply=supply,
+        cal = calibrate(heads, params_of[0], model=model, check=False, supply=supply,
                         progress=progress)
     except (CalibrationError, QuasiStaticUnsupported, ValueError, ArithmeticError) as exc:
-        return None, params, f'calibration skipped ({str(exc).splitlines()[0]})'
-    calibrated = record_params(cal.params, record).with_values(model=model)
+        return None, params_of, f'calibration skipped ({str(exc).splitlines()[0]})'
+    calibrated = [record_params(cal.params, r).with_values(model=model) for r in records]
     try:  # the stepper's model must exist for the calibrated values (the rod table)
-        make_kinetostatic_model(calibrated, model)
+        make_kinetostatic_model(calibrated[0], model)
     except (ValueError, ArithmeticError, RuntimeError) as exc:
-        return None, params, (f'calibration not used: the {model} model cannot represent '
-                              f'its result ({str(exc).splitlines()[0]})')
+        return None, params_of, (f'calibration not used: the {model} model cannot represent '
+                                 f'its result ({str(exc).splitlines()[0]})')
     fitted = [e.name for e in cal.report.estimates.values() if e.determined]
     note = ('nominal parameters calibrated on the training part: '
             + (', '.join(fitted) if fitted else 'none determined'))
@@ -331,6 +426,9 @@ def format_summary(result):
     lines = [
         f'diagnose {r.source}: {r.duration:.1f} s at {r.sample_rate:.4g} Hz '
         f'({r.time.size} samples; measured: {", ".join(channels)})',
+        *([f'  with {len(result.records) - 1} more record(s) of the same muscle: '
+           + ', '.join(os.path.basename(p) for p in result.records[1:])]
+          if len(result.records) > 1 else []),
         f'config {result.config} (mass {r.mass * 1e3:.1f} g), model {result.model}; '
         f'train 0-{result.split_time:.0f} s, held out {result.split_time:.0f}-'
         f'{r.time[-1]:.0f} s',

@@ -148,17 +148,27 @@ class ResidualStats:
     heating_mean: float  # mean residual on the heating branch
     cooling_mean: float  # mean residual on the cooling branch
     best_lag_s: float  # lag of the peak measured-vs-model cross-correlation
+    structure: object = None  # noise.StructureTest: residual-input independence test
 
     @property
     def structured(self):
-        """Return True when the residual carries more than noise (STRUCTURE_RATIO)."""
+        """Return True when the residual carries more than noise.
+
+        With a residual-input test (noise.structure_test): when the inputs predict
+        a practically relevant part of the residual, whatever the colour of the
+        noise. Without one: when the RMS exceeds STRUCTURE_RATIO white-noise sigmas.
+        """
+        if self.structure is not None:
+            return self.structure.structured
         return self.ratio > STRUCTURE_RATIO
 
 
-def residual_stats(channel, unit, measured, predicted, sigma, sample_rate, temperature):
+def residual_stats(channel, unit, measured, predicted, sigma, sample_rate, temperature,
+                   structure=None):
     """Return ResidualStats of ``measured - predicted`` (channel units).
 
-    ``temperature`` (degC) splits heating and cooling branches.
+    ``temperature`` (degC) splits heating and cooling branches; ``structure`` is
+    the channel's noise.StructureTest, if any.
     """
     residual = np.asarray(measured) - np.asarray(predicted)
     rms = float(np.sqrt(np.mean(residual ** 2)))
@@ -174,4 +184,4 @@ def residual_stats(channel, unit, measured, predicted, sigma, sample_rate, tempe
         low_frequency_fraction=low_frequency_fraction(residual, sample_rate),
         heating_mean=float(residual[heating].mean()) if heating.any() else 0.0,
         cooling_mean=float(residual[~heating].mean()) if (~heating).any() else 0.0,
-        best_lag_s=best_lag)
+        best_lag_s=best_lag, structure=structure)

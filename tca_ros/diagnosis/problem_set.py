@@ -1,0 +1,79 @@
+"""Several records of one muscle as one fitting problem (``diagnose REC [REC ...]``).
+
+Each record keeps its own FitProblem (its grid, its split in time, its mass and
+initial load, its defect correction); the effect parameters are shared. The
+training residuals of all records are stacked channel by channel (so a
+per-channel cost still reads as one block per channel) and the held-out costs
+are summed: the search (fitting.search_effects) sees one problem.
+"""
+import numpy as np
+
+from tca_ros.diagnosis.fitting import FAILED_RESIDUAL, FitProblem
+
+
+class FitProblemSet(FitProblem):
+    """A list of FitProblems with shared effect values (same channels in each)."""
+
+    def __init__(self, problems):  # noqa: D107 -- documented on the class
+        if not problems:
+            raise ValueError('a problem set needs at least one record')
+        self.problems = list(problems)
+        first = self.problems[0]
+        self.channels = list(first.channels)
+        for p in self.problems[1:]:
+            if list(p.channels) != self.channels:
+                raise ValueError('every record of a set must carry the same channels '
+                                 f'({", ".join(self.channels)})')
+        self.progress = first.progress
+        self.model = first.model
+        self.params = first.params
+        self.record = first.record
+        self.sample_rate = first.sample_rate
+        self.sigma = first.sigma
+        self.full_split = first.full_split
+
+    @property
+    def base_values(self):
+        """Return the shared base values (dotted name -> schema units)."""
+        return self.problems[0].base_values
+
+    @base_values.setter
+    def base_values(self, values):
+        for p in self.problems:
+            p.base_values = dict(values)
+
+    def parameters(self, values):
+        """Return the first record's params with ``values`` applied."""
+        return self.problems[0].parameters(values)
+
+    def set_base(self, values):
+        """Make ``values`` the base of every record; return the list of full simulations."""
+        return [p.set_base(values) for p in self.problems]
+
+    def simulate_full(self, values):
+        """Return the record-rate SimulationResult of every record (list)."""
+        return [p.simulate_full(values) for p in self.problems]
+
+    def train_residuals(self, values):
+        """Return the stacked training residuals (-): channel by channel, records inside."""
+        parts = [p.train_residuals(values).reshape(len(self.channels), -1)
+                 for p in self.problems]
+        return np.concatenate([np.concatenate([part[i] for part in parts])
+                               for i in range(len(self.channels))])
+
+    def heldout(self, values):
+        """Return (cost, {channel: RMSE}, n, mean lag-1 autocorrelation) over the records."""
+        cost, n, rhos, sq, counts = 0.0, 0, [], {}, {}
+        for p in self.problems:
+            c, rmse, k, rho = p.heldout(values)
+            cost += c
+            n += k
+            rhos.append(rho)
+            m = p.m - p.split
+            for ch, v in rmse.items():
+                sq[ch] = sq.get(ch, 0.0) + v * v * m
+                counts[ch] = counts.get(ch, 0) + m
+        if not np.isfinite(cost):
+            cost = FAILED_RESIDUAL ** 2 * n
+        rmse = {ch: float(np.sqrt(sq[ch] / counts[ch])) for ch in sq}
+        return cost, rmse, n, float(np.mean(rhos))
