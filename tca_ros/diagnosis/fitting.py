@@ -32,6 +32,7 @@ import time as wallclock
 import numpy as np
 from scipy.optimize import least_squares
 
+from tca_ros.diagnosis.noise import quantisation_sigma
 from tca_ros.diagnosis.residuals import effective_samples, lag_one_autocorrelation, noise_sigma
 from tca_ros.model.dynamics import simulate
 from tca_ros.model.params import SPECS
@@ -183,12 +184,14 @@ class FitProblem:
         self.split = int(np.searchsorted(self.coarse_time, split_time))  # coarse index
         self.full_split = int(np.searchsorted(record.time, split_time))
         self.channels = ['displacement']
-        self.sigma = {'displacement': noise_sigma(record.displacement,
-                                                  DISPLACEMENT_NOISE_FLOOR)}
+        # white noise from second differences, at least the rounding of a quantised
+        # sensor (an encoder's differences are mostly 0: their MAD would be 0)
+        self.sigma = {'displacement': noise_sigma(record.displacement, max(
+            DISPLACEMENT_NOISE_FLOOR, quantisation_sigma(record.displacement)))}
         if record.temperature is not None:
             self.channels.append('temperature')
-            self.sigma['temperature'] = noise_sigma(record.temperature,
-                                                    TEMPERATURE_NOISE_FLOOR)
+            self.sigma['temperature'] = noise_sigma(record.temperature, max(
+                TEMPERATURE_NOISE_FLOOR, quantisation_sigma(record.temperature)))
         self.measured = {c: getattr(record, c) for c in self.channels}
         self.coarse_measured = {c: self.measured[c][self.index] for c in self.channels}
         self.correction = {c: np.zeros(self.m) for c in self.channels}

@@ -3,27 +3,23 @@
 Real records carry noise that is not white: encoder quantisation, 1/f wander and
 drift, stick-slip steps, slow sensor offsets. A test that compares the residual
 RMS with a white-noise level calls every real record "unexplained", and one that
-counts samples as independent makes every candidate "significant". Two questions
-are asked instead, each answered with a model of the noise fitted to the data:
+counts samples as independent makes every candidate "significant" (the search
+counts effective samples from the residual's autocorrelation: fitting.py). The
+question the verdict asks is answered with a model of the noise fitted to the
+data:
 
-1. **Is a candidate's held-out gain real?** (:func:`block_gain_test`) The
-   held-out part is cut into contiguous blocks, each longer than the residual's
-   correlation time; the per-block reductions of the squared residual are the
-   samples of a one-sided t-test. Correlation inside a block does not matter,
-   only between blocks (Kuensch's block idea; cross-validation on blocks, Burman,
-   Chow & Nolan, Biometrika 81(2), 1994).
-2. **Is what is left noise?** (:func:`structure_test`) Noise, however coloured,
-   does not depend on the inputs; missing physics does. The residual is
-   regressed on signals the inputs drive (the predicted displacement and its
-   square and rate, the predicted temperature rise, the power through faster
-   and slower first-order lags than the thermal one), with an offset and a
-   linear drift as nuisance terms and an AR(p) noise model (p by BIC, feasible
-   generalised least squares, Cochrane & Orcutt, JASA 44, 1949). The F-test of
-   the input terms is Ljung's residual-input independence test (System
-   Identification, 2nd ed., Sec. 16.6) in regression form. A residual is
-   *structured* when the input terms are significant and what they predict is
-   larger than the rest of the residual (it is not "within the noise") and than
-   a small share of the measured stroke or swing.
+**Is what is left noise?** (:func:`structure_test`) Noise, however coloured,
+does not depend on the inputs; missing physics does. The residual is
+regressed on signals the inputs drive (the predicted displacement and its
+square and rate, the predicted temperature rise, the power through faster
+and slower first-order lags than the thermal one), with an offset and a
+linear drift as nuisance terms and an AR(p) noise model (p by BIC, feasible
+generalised least squares, Cochrane & Orcutt, JASA 44, 1949). The F-test of
+the input terms is Ljung's residual-input independence test (System
+Identification, 2nd ed., Sec. 16.6) in regression form. A residual is
+*structured* when the input terms are significant and what they predict is
+larger than the rest of the residual (it is not "within the noise") and than
+a small share of the measured stroke or swing.
 """
 from dataclasses import dataclass
 import math
@@ -36,8 +32,6 @@ STRUCTURE_NOISE_SHARE = 1.0  # predictable residual within this many noise RMS i
 STRUCTURE_FLOOR = 0.002  # ... and below this share of the signal swing is ignored
 STRUCTURE_RATE_HZ = 2.0  # the structure test runs on block means at about this rate (Hz)
 MAX_AR_ORDER = 3  # highest order of the AR noise model
-BLOCKS = 8  # held-out blocks of the gain test
-BLOCK_ALPHA = 0.01  # one-sided level of the block gain test
 QUANTISATION_SHARE = 0.95  # share of differences on a lattice for it to count as one
 
 
@@ -228,26 +222,3 @@ def structure_test(segments, swing, rate_hz=STRUCTURE_RATE_HZ, floor_share=STRUC
     floor = max(floor_share * swing, noise_share * noise_rms)
     return StructureTest(p_value=p, predictable_rms=math.sqrt(predictable_ms),
                          noise_rms=noise_rms, floor=floor, ar_order=len(phi), n=n)
-
-
-def block_gain_test(base_residual, cand_residual, blocks=BLOCKS):
-    """Return (t, p) of the one-sided block test that the candidate's residual is smaller.
-
-    ``*_residual`` are the held-out residuals (normalised, any channel layout as
-    long as both agree), each an array of shape (channels, samples). The samples
-    are cut into ``blocks`` contiguous blocks; d_b = S_base,b - S_cand,b; the
-    t-statistic of mean(d) over the blocks, p from Student's t with blocks - 1
-    degrees of freedom.
-    """
-    base = np.atleast_2d(np.asarray(base_residual, dtype=float))
-    cand = np.atleast_2d(np.asarray(cand_residual, dtype=float))
-    n = base.shape[1]
-    blocks = max(2, min(blocks, n // 4))
-    edges = np.linspace(0, n, blocks + 1).astype(int)
-    d = np.array([float(np.sum(base[:, a:b] ** 2) - np.sum(cand[:, a:b] ** 2))
-                  for a, b in zip(edges[:-1], edges[1:])])
-    sd = float(np.std(d, ddof=1))
-    if sd == 0.0:
-        return (math.inf, 0.0) if d.mean() > 0.0 else (-math.inf, 1.0)
-    t = float(d.mean() / (sd / math.sqrt(blocks)))
-    return t, float(stats.t.sf(t, blocks - 1))

@@ -11,7 +11,6 @@ import numpy as np
 
 from tca_ros.diagnosis import plots
 from tca_ros.diagnosis.identification import gain
-from tca_ros.diagnosis.residuals import STRUCTURE_RATIO
 from tca_ros.model.params import dump_params
 
 FIGURE_DPI = 110
@@ -106,14 +105,19 @@ def _fmt(value, digits=4):
 
 
 def _stats_table(result):
-    lines = ['| channel | model | RMS | noise sigma | RMS/sigma | mean | lag-1 acf | '
+    lines = ['| channel | model | RMS | input-predictable | rest (noise) | p (inputs) | '
+             'structured | white sigma | mean | lag-1 acf | '
              'Ljung-Box p (1 Hz) | flatness | power < 0.1 Hz | heating mean | cooling mean '
              '| peak lag (s) |',
-             '|---|---|---|---|---|---|---|---|---|---|---|---|---|']
+             '|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|']
     for label, stats in (('nominal', result.nominal_stats), ('extended', result.extended_stats)):
         for c, st in stats.items():
-            lines.append(f'| {c} ({st.unit}) | {label} | {_fmt(st.rms)} | {_fmt(st.noise_sigma)} '
-                         f'| {st.ratio:.2f} | {_fmt(st.mean)} | {st.lag_one:.2f} | '
+            t = st.structure
+            test = (f'{_fmt(t.predictable_rms)} | {_fmt(t.noise_rms)} | {t.p_value:.2g} | '
+                    if t is not None else '- | - | - | ')
+            lines.append(f'| {c} ({st.unit}) | {label} | {_fmt(st.rms)} | {test}'
+                         f'{"yes" if st.structured else "no"} | {_fmt(st.noise_sigma)} '
+                         f'| {_fmt(st.mean)} | {st.lag_one:.2f} | '
                          f'{st.ljung_box_p:.2g} | {st.flatness:.2f} | '
                          f'{100 * st.low_frequency_fraction:.1f} % | {_fmt(st.heating_mean)} | '
                          f'{_fmt(st.cooling_mean)} | {st.best_lag_s:+.2f} |')
@@ -196,8 +200,12 @@ def write_markdown(result, report_dir, figures):
     if 'ranking.png' in figures:
         lines += ['', '![candidate ranking](ranking.png)']
     lines += ['', '## Residual diagnostics (held-out part)', '',
-              f'A channel is structured when its residual RMS exceeds {STRUCTURE_RATIO:g} '
-              'times the sensor noise. Ljung-Box on residuals decimated to 1 Hz; spectral '
+              'A channel is structured when the inputs still predict its residual: an F-test '
+              '(p < 0.001) of input-driven terms (model output, its square and rate, the '
+              'temperature rise, the power through faster and slower lags) against an '
+              'offset, a drift and an AR noise model, and a predictable part larger than '
+              'the rest of the residual and than 0.2 % of the swing (noise.py; the noise '
+              'may be coloured). Ljung-Box on residuals decimated to 1 Hz; spectral '
               'flatness about 0.56 for white noise; heating/cooling means differ under '
               'hysteresis; a positive peak lag points to a sensor or thermal lag.', '']
     lines += _stats_table(result)
