@@ -36,6 +36,7 @@ from tca_ros.diagnosis.noise import quantisation_sigma
 from tca_ros.diagnosis.residuals import effective_samples, lag_one_autocorrelation, noise_sigma
 from tca_ros.model.dynamics import simulate
 from tca_ros.model.params import SPECS
+from tca_ros.model.quasistatic import QuasiStaticUnsupported, simulate_quasistatic
 
 FAILED_RESIDUAL = 1e3  # noise units per sample returned when a simulation fails
 DISPLACEMENT_NOISE_FLOOR = 1e-7  # m, noise floor for noise-free data
@@ -161,10 +162,14 @@ class FitProblem:
         Leading share of the record used for fitting.
     progress : Progress, optional
         Counts simulations.
+    reduced : bool
+        Simulate the fits' coarse grid with the quasi-static reduction where it
+        applies (the defect correction removes its difference from the full
+        dynamics at the base model); False: always the full dynamics (18).
     """
 
     def __init__(self, record, params, model='cst', physics_rate=None, fit_rate=FIT_RATE_HZ,
-                 train_fraction=TRAIN_FRACTION, progress=None):
+                 train_fraction=TRAIN_FRACTION, progress=None, reduced=True):
         self.record = record
         self.params = params
         self.model = model
@@ -194,7 +199,8 @@ class FitProblem:
                 TEMPERATURE_NOISE_FLOOR, quantisation_sigma(record.temperature)))
         self.measured = {c: getattr(record, c) for c in self.channels}
         self.coarse_measured = {c: self.measured[c][self.index] for c in self.channels}
-        self.correction = {c: np.zeros(self.m) for c in self.channels}
+        self.correction = {}  # kind of coarse simulation -> {channel: defect correction}
+        self.reduced = reduced
         self.base_values = {}
         self._cache = {}
         self._full_cache = {}
@@ -226,17 +232,47 @@ class FitProblem:
             return self._cache[key]
         self.progress.tick()
         try:
-            sim = simulate(self.parameters(values), self.coarse_time[:end],
-                           self.coarse_power[:end], self.coarse_load[:end], model=self.model,
-                           physics_rate=self.sample_rate / self.k)
+            kind, sim = self._coarse_simulation(self.parameters(values), end)
+            correction = self._correction(kind)
         except (ValueError, ArithmeticError):
             self._cache[key] = None
             return None
-        out = {c: getattr(sim, c) + self.correction[c][:end] for c in self.channels}
+        out = {c: getattr(sim, c) + correction[c][:end] for c in self.channels}
         if not all(np.all(np.isfinite(v)) for v in out.values()):
             out = None
         self._cache[key] = out
         return out
+
+    def _coarse_simulation(self, params, end, kind=None):
+        """Return (kind, SimulationResult) on the coarse grid up to index ``end``.
+
+        kind 'reduced': the quasi-static reduction (model/quasistatic.py, about
+        100x cheaper), used when ``self.reduced`` and the params need nothing it
+        cannot represent; kind 'full': the dynamics (18) at the coarse rate.
+        """
+        args = (params, self.coarse_time[:end], self.coarse_power[:end],
+                self.coarse_load[:end])
+        if kind != 'full' and self.reduced:
+            try:
+                return 'reduced', simulate_quasistatic(*args, model=self.model)
+            except QuasiStaticUnsupported:
+                if kind == 'reduced':
+                    raise
+        return 'full', simulate(*args, model=self.model, physics_rate=self.sample_rate / self.k)
+
+    def _correction(self, kind):
+        """Return the defect correction {channel: array} of a coarse-grid ``kind``.
+
+        The base model at the record rate minus the base on the coarse grid by
+        the same kind of simulation, so a candidate simulated by either kind is
+        corrected by its own kind's error (computed on first need per base).
+        """
+        if kind not in self.correction:
+            _, coarse = self._coarse_simulation(self.parameters(self.base_values), self.m, kind)
+            full = self.simulate_full(self.base_values)
+            self.correction[kind] = {c: getattr(full, c)[self.index] - getattr(coarse, c)
+                                     for c in self.channels}
+        return self.correction[kind]
 
     def set_base(self, values):
         """Make ``values`` the base model: recompute the defect correction.
@@ -245,13 +281,11 @@ class FitProblem:
         """
         self.base_values = dict(values)
         full = self.simulate_full(values)
-        self.correction = {c: np.zeros(self.m) for c in self.channels}
+        self.correction = {}
         self._cache.clear()
         coarse = self.simulate_coarse(values)
         if coarse is None:  # e.g. the coarse grid beyond the explicit stability limit
             raise ValueError(f'values {values}: the coarse fit grid cannot simulate them')
-        self.correction = {c: getattr(full, c)[self.index] - coarse[c] for c in self.channels}
-        self._cache.clear()
         return full
 
     # -- residuals ------------------------------------------------------------------

@@ -3,7 +3,6 @@
 ``diagnose`` is what ``tca_sim diagnose DATA --config ... [--report DIR]`` runs;
 ``format_summary`` is its one-screen stdout summary.
 """
-import dataclasses
 from dataclasses import dataclass, field
 import math
 import os
@@ -14,14 +13,16 @@ import numpy as np
 from tca_ros.diagnosis.candidates import build_candidates
 from tca_ros.diagnosis.data import read_record, record_config
 from tca_ros.diagnosis.fitting import FitProblem, Progress, search_effects
-from tca_ros.diagnosis.residuals import residual_stats
+from tca_ros.diagnosis.record_ops import decimated, leading_part
+from tca_ros.diagnosis.verdict import channel_stats, decide_verdict, gain, \
+    pooled_heldout_rmse
 
 VERDICTS = ('explained', 'adequate', 'unexplained')
-UNITS = {'displacement': 'm', 'temperature': 'K'}
 #: Rough count of simulations of a diagnosis, for the progress bar.
 EXPECTED_SIMULATIONS = 200
 PEAK_PERCENTILE = 99.5  # % of measured contraction taken as its peak (noise-robust)
 INITIAL_WINDOW_S = 1.0  # s at the start of a record taken as ambient equilibrium
+CALIBRATION_RATE_HZ = 10.0  # the calibrate-first step fits block means at about this rate
 
 
 class DiagnosisError(ValueError):
@@ -110,107 +111,6 @@ class DiagnosisResult:
             'extended_params': self.extended_params_path,
             'verdict': self.verdict,
         }
-
-
-def gain(before, after):
-    """Return 100 (1 - after / before) (%), the relative RMSE reduction."""
-    return 100.0 * (1.0 - after / before) if before > 0.0 else 0.0
-
-
-def heldout_rmse(record, sim, split, channels):
-    """Return {channel: RMSE} of ``sim`` against ``record`` from sample ``split`` on."""
-    return {c: float(np.sqrt(np.mean((getattr(record, c)[split:]
-                                      - getattr(sim, c)[split:]) ** 2))) for c in channels}
-
-
-def pooled_heldout_rmse(problems, sims, channels):
-    """Return {channel: RMSE} over the held-out parts of all records (m, K)."""
-    out = {}
-    for c in channels:
-        res = np.concatenate([getattr(p.record, c)[p.full_split:] - getattr(s, c)[p.full_split:]
-                              for p, s in zip(problems, sims)])
-        out[c] = float(np.sqrt(np.mean(res ** 2)))
-    return out
-
-
-def channel_stats(problems, sims, params=None):
-    """Return {channel: ResidualStats} of ``sims`` on the held-out parts (record rate).
-
-    ``problems`` and ``sims`` are lists (one per record) or a single pair. Each
-    channel carries the residual-input independence test (noise.structure_test),
-    pooled over the records, against the input-driven signals of ``params``
-    (per record; default each problem's).
-    """
-    from tca_ros.diagnosis.noise import input_terms, structure_test
-    from tca_ros.model.thermal import thermal_time_constant
-    if not isinstance(problems, (list, tuple)):
-        problems, sims = [problems], [sims]
-        params = None if params is None else [params]
-    params = params or [p.params for p in problems]
-    out = {}
-    for c in problems[0].channels:
-        segments, measured_all, predicted_all, temp_all = [], [], [], []
-        swing = 0.0
-        for p, sim, par in zip(problems, sims, params):
-            r, s = p.record, p.full_split
-            measured, predicted = getattr(r, c), getattr(sim, c)
-            tau = thermal_time_constant(par.fiber, par.thermal)
-            rise = sim.temperature[s:] - par.thermal.ambient_temperature
-            terms = input_terms(predicted[s:], rise, r.power[s:], p.sample_rate, tau)
-            segments.append((measured[s:] - predicted[s:], terms, p.sample_rate))
-            swing = max(swing, float(np.percentile(measured, 99.0)
-                                     - np.percentile(measured, 1.0)))
-            measured_all.append(measured[s:])
-            predicted_all.append(predicted[s:])
-            temp = r.temperature if r.temperature is not None else sim.temperature
-            temp_all.append(temp[s:])
-        first = problems[0]
-        test = structure_test(segments, swing)
-        out[c] = residual_stats(c, UNITS[c], np.concatenate(measured_all),
-                                np.concatenate(predicted_all), first.sigma[c],
-                                first.sample_rate, np.concatenate(temp_all), structure=test)
-    return out
-
-
-def _structure_summary(stats):
-    """Return 'channel: predictable X of floor Y (p=...)' for each channel."""
-    parts = []
-    for st in stats.values():
-        t = st.structure
-        if t is None:
-            parts.append(f'{st.channel} RMS/sigma {st.ratio:.2f}')
-            continue
-        scale, unit = (1e6, 'um') if st.unit == 'm' else (1.0, st.unit)
-        parts.append(f'{st.channel}: input-predictable {t.predictable_rms * scale:.3g} {unit} '
-                     f'(floor {t.floor * scale:.3g} {unit}, p={t.p_value:.2g}), '
-                     f'noise {t.noise_rms * scale:.3g} {unit}')
-    return '; '.join(parts)
-
-
-def decide_verdict(effects, nominal_stats, extended_stats):
-    """Return (verdict, one-sentence explanation) from the residual structure.
-
-    A channel is structured when the inputs still predict a practically relevant
-    part of its held-out residual (noise.structure_test; the noise may be
-    coloured, drifting or quantised). 'adequate': nothing added and no channel
-    structured; 'explained': effects added and no channel structured;
-    'unexplained': structure remains.
-    """
-    stats = extended_stats if effects else nominal_stats
-    structured = [st.channel for st in stats.values() if st.structured]
-    summary = _structure_summary(stats)
-    if not structured:
-        if effects:
-            return 'explained', (f'what remains after adding {" + ".join(effects)} does not '
-                                 f'depend on the inputs ({summary})')
-        return 'adequate', ('no candidate improves the held-out fit significantly and what '
-                            f'remains does not depend on the inputs ({summary})')
-    what = ('after adding ' + ' + '.join(effects)) if effects else 'and no candidate helps'
-    caution = ('; the effects added improve the fit but do not explain the data, so do not '
-               'read them as its cause') if effects else ''
-    return 'unexplained', (f'unexplained structure remains {what}: the inputs still predict '
-                           f'the held-out residual of {", ".join(structured)} ({summary})'
-                           f'{caution}')
 
 
 def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
@@ -380,14 +280,7 @@ def _calibrate_training_part(records, params_of, model, fraction, supply, progre
     from tca_ros.diagnosis.calibration import calibrate, CalibrationError, record_params
     from tca_ros.model.kinetostatics import make_kinetostatic_model
     from tca_ros.model.quasistatic import QuasiStaticUnsupported
-    heads = []
-    for record in records:
-        split = int(np.searchsorted(record.time, record.time[0] + fraction * record.duration))
-        heads.append(dataclasses.replace(
-            record, time=record.time[:split], power=record.power[:split],
-            load=record.load[:split], displacement=record.displacement[:split],
-            temperature=None if record.temperature is None else record.temperature[:split],
-            resistance=None if record.resistance is None else record.resistance[:split]))
+    heads = [decimated(leading_part(r, fraction), CALIBRATION_RATE_HZ) for r in records]
     try:
         cal = calibrate(heads, params_of[0], model=model, check=False, supply=supply,
                         progress=progress)

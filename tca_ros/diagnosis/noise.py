@@ -13,8 +13,9 @@ does not depend on the inputs; missing physics does. The residual is
 regressed on signals the inputs drive (the predicted displacement and its
 square and rate, the predicted temperature rise, the power through faster
 and slower first-order lags than the thermal one), with an offset and a
-linear drift as nuisance terms and an AR(p) noise model (p by BIC, feasible
-generalised least squares, Cochrane & Orcutt, JASA 44, 1949). The F-test of
+linear drift as nuisance terms and an AR(p) noise model (p by BIC, its memory
+capped at MAX_NOISE_TAU_S; feasible generalised least squares, Cochrane &
+Orcutt, JASA 44, 1949). The F-test of
 the input terms is Ljung's residual-input independence test (System
 Identification, 2nd ed., Sec. 16.6) in regression form. A residual is
 *structured* when the input terms are significant and what they predict is
@@ -32,6 +33,7 @@ STRUCTURE_NOISE_SHARE = 1.0  # predictable residual within this many noise RMS i
 STRUCTURE_FLOOR = 0.002  # ... and below this share of the signal swing is ignored
 STRUCTURE_RATE_HZ = 2.0  # the structure test runs on block means at about this rate (Hz)
 MAX_AR_ORDER = 3  # highest order of the AR noise model
+MAX_NOISE_TAU_S = 5.0  # s: noise memory beyond this is drift (a nuisance term), not AR
 QUANTISATION_SHARE = 0.95  # share of differences on a lattice for it to count as one
 
 
@@ -175,6 +177,7 @@ def structure_test(segments, swing, rate_hz=STRUCTURE_RATE_HZ, floor_share=STRUC
             continue
         x = np.column_stack([block_means(c, step) for c in terms.T])
         parts.append((e, x))
+        block_rate = sample_rate / step
     n = sum(e.size for e, _ in parts)
     if n < 12 or not parts:
         e = np.concatenate(blocked) if blocked else np.zeros(0)
@@ -200,10 +203,15 @@ def structure_test(segments, swing, rate_hz=STRUCTURE_RATE_HZ, floor_share=STRUC
     phi = np.zeros(0)
     ew, nw, fw = stacked(phi)
     beta, *_ = np.linalg.lstsq(fw, ew, rcond=None)
+    # the AR noise model may not remember longer than MAX_NOISE_TAU_S: an AR near a
+    # unit root would call any slow model error "noise" (slow wander is the drift term)
+    rho_max = math.exp(-1.0 / (block_rate * MAX_NOISE_TAU_S))
     for _ in range(2):  # feasible GLS: AR model from the residual, refit prewhitened
         full = [np.column_stack([u, x]) for u, x in zip(nuis, xs)]
         resid = np.concatenate([e - f @ beta for e, f in zip(es, full)])
         phi, _ = ar_fit(resid, ar_order(resid))
+        if phi.sum() > rho_max:
+            phi = phi * (rho_max / phi.sum())
         ew, nw, fw = stacked(phi)
         beta, *_ = np.linalg.lstsq(fw, ew, rcond=None)
     q = np.linalg.matrix_rank(fw) - np.linalg.matrix_rank(nw)

@@ -10,7 +10,7 @@ import os
 import numpy as np
 
 from tca_ros.diagnosis import plots
-from tca_ros.diagnosis.identification import gain
+from tca_ros.diagnosis.verdict import gain
 from tca_ros.model.params import dump_params
 
 FIGURE_DPI = 110

@@ -1,0 +1,62 @@
+"""Operations on a Record that keep its meaning: a leading part, a coarser grid."""
+import dataclasses
+
+import numpy as np
+
+MEASURED = ('displacement', 'temperature', 'resistance')
+
+
+def leading_part(record, fraction):
+    """Return the first ``fraction`` (0-1] of ``record``'s duration as a Record."""
+    split = int(np.searchsorted(record.time, record.time[0] + fraction * record.duration))
+    return _take(record, slice(0, split))
+
+
+def decimated(record, rate):
+    """Return ``record`` on a grid of about ``rate`` (Hz), or itself when not faster.
+
+    Inputs (power W, load N) are held from each sample to the next, so a coarse
+    sample holds the mean of the fine ones it covers: the heat input is kept.
+    Measured channels (m, degC, ohm) are averaged over a window centred on the
+    coarse sample, which keeps their timing and averages sensor noise down.
+    """
+    k = int(round(record.sample_rate / rate)) if rate > 0.0 else 1
+    if k < 2:
+        return record
+    n = record.time.size
+    starts = np.arange(0, n, k)
+    changes = {'time': record.time[starts],
+               'power': _block_mean(record.power, starts),
+               'load': _block_mean(record.load, starts)}
+    changes['load'][0] = record.load[0]  # the initial equilibrium uses load[0]
+    for name in MEASURED:
+        values = getattr(record, name)
+        if values is not None:
+            changes[name] = _centred_mean(values, starts, k)
+    meta = dict(record.meta)
+    meta['sample_rate_hz'] = record.sample_rate / k
+    return dataclasses.replace(record, meta=meta, **changes)
+
+
+def _take(record, index):
+    changes = {'time': record.time[index], 'power': record.power[index],
+               'load': record.load[index]}
+    for name in MEASURED:
+        values = getattr(record, name)
+        changes[name] = None if values is None else values[index]
+    return dataclasses.replace(record, **changes)
+
+
+def _block_mean(values, starts):
+    sums = np.add.reduceat(np.asarray(values, dtype=float), starts)
+    counts = np.diff(np.append(starts, len(values)))
+    return sums / counts
+
+
+def _centred_mean(values, starts, k):
+    values = np.asarray(values, dtype=float)
+    cum = np.concatenate(([0.0], np.cumsum(values)))
+    lo = np.clip(starts - k // 2, 0, values.size)
+    hi = np.clip(starts - k // 2 + k, 0, values.size)
+    hi = np.maximum(hi, lo + 1)
+    return (cum[hi] - cum[lo]) / (hi - lo)

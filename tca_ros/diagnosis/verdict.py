@@ -1,0 +1,112 @@
+"""The verdict of a diagnosis: held-out scores and whether what is left is noise.
+
+A channel is structured when the inputs still predict its held-out residual
+(noise.structure_test, pooled over the records of a set); the verdict follows
+(docs/diagnosis.md, sections 2.9 and 11).
+"""
+import numpy as np
+
+from tca_ros.diagnosis.noise import input_terms, structure_test
+from tca_ros.diagnosis.residuals import residual_stats
+from tca_ros.model.thermal import thermal_time_constant
+
+UNITS = {'displacement': 'm', 'temperature': 'K'}
+
+
+def gain(before, after):
+    """Return 100 (1 - after / before) (%), the relative RMSE reduction."""
+    return 100.0 * (1.0 - after / before) if before > 0.0 else 0.0
+
+
+def heldout_rmse(record, sim, split, channels):
+    """Return {channel: RMSE} of ``sim`` against ``record`` from sample ``split`` on."""
+    return {c: float(np.sqrt(np.mean((getattr(record, c)[split:]
+                                      - getattr(sim, c)[split:]) ** 2))) for c in channels}
+
+
+def pooled_heldout_rmse(problems, sims, channels):
+    """Return {channel: RMSE} over the held-out parts of all records (m, K)."""
+    out = {}
+    for c in channels:
+        res = np.concatenate([getattr(p.record, c)[p.full_split:] - getattr(s, c)[p.full_split:]
+                              for p, s in zip(problems, sims)])
+        out[c] = float(np.sqrt(np.mean(res ** 2)))
+    return out
+
+
+def channel_stats(problems, sims, params=None):
+    """Return {channel: ResidualStats} of ``sims`` on the held-out parts (record rate).
+
+    ``problems`` and ``sims`` are lists (one per record) or a single pair. Each
+    channel carries the residual-input independence test (noise.structure_test),
+    pooled over the records, against the input-driven signals of ``params``
+    (per record; default each problem's).
+    """
+    if not isinstance(problems, (list, tuple)):
+        problems, sims = [problems], [sims]
+        params = None if params is None else [params]
+    params = params or [p.params for p in problems]
+    out = {}
+    for c in problems[0].channels:
+        segments, measured_all, predicted_all, temp_all = [], [], [], []
+        swing = 0.0
+        for p, sim, par in zip(problems, sims, params):
+            r, s = p.record, p.full_split
+            measured, predicted = getattr(r, c), getattr(sim, c)
+            tau = thermal_time_constant(par.fiber, par.thermal)
+            rise = sim.temperature[s:] - par.thermal.ambient_temperature
+            terms = input_terms(predicted[s:], rise, r.power[s:], p.sample_rate, tau)
+            segments.append((measured[s:] - predicted[s:], terms, p.sample_rate))
+            swing = max(swing, float(np.percentile(measured, 99.0)
+                                     - np.percentile(measured, 1.0)))
+            measured_all.append(measured[s:])
+            predicted_all.append(predicted[s:])
+            temp = r.temperature if r.temperature is not None else sim.temperature
+            temp_all.append(temp[s:])
+        first = problems[0]
+        test = structure_test(segments, swing)
+        out[c] = residual_stats(c, UNITS[c], np.concatenate(measured_all),
+                                np.concatenate(predicted_all), first.sigma[c],
+                                first.sample_rate, np.concatenate(temp_all), structure=test)
+    return out
+
+
+def _structure_summary(stats):
+    """Return 'channel: predictable X of floor Y (p=...)' for each channel."""
+    parts = []
+    for st in stats.values():
+        t = st.structure
+        if t is None:
+            parts.append(f'{st.channel} RMS/sigma {st.ratio:.2f}')
+            continue
+        scale, unit = (1e6, 'um') if st.unit == 'm' else (1.0, st.unit)
+        parts.append(f'{st.channel}: input-predictable {t.predictable_rms * scale:.3g} {unit} '
+                     f'(floor {t.floor * scale:.3g} {unit}, p={t.p_value:.2g}), '
+                     f'noise {t.noise_rms * scale:.3g} {unit}')
+    return '; '.join(parts)
+
+
+def decide_verdict(effects, nominal_stats, extended_stats):
+    """Return (verdict, one-sentence explanation) from the residual structure.
+
+    A channel is structured when the inputs still predict a practically relevant
+    part of its held-out residual (noise.structure_test; the noise may be
+    coloured, drifting or quantised). 'adequate': nothing added and no channel
+    structured; 'explained': effects added and no channel structured;
+    'unexplained': structure remains.
+    """
+    stats = extended_stats if effects else nominal_stats
+    structured = [st.channel for st in stats.values() if st.structured]
+    summary = _structure_summary(stats)
+    if not structured:
+        if effects:
+            return 'explained', (f'what remains after adding {" + ".join(effects)} does not '
+                                 f'depend on the inputs ({summary})')
+        return 'adequate', ('no candidate improves the held-out fit significantly and what '
+                            f'remains does not depend on the inputs ({summary})')
+    what = ('after adding ' + ' + '.join(effects)) if effects else 'and no candidate helps'
+    caution = ('; the effects added improve the fit but do not explain the data, so do not '
+               'read them as its cause') if effects else ''
+    return 'unexplained', (f'unexplained structure remains {what}: the inputs still predict '
+                           f'the held-out residual of {", ".join(structured)} ({summary})'
+                           f'{caution}')
