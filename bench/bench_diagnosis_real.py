@@ -26,7 +26,6 @@ Printed figures, not assertions.
 import argparse
 import collections
 import glob
-import math
 import multiprocessing
 import os
 import sys
@@ -36,19 +35,14 @@ import time
 import numpy as np
 
 from tca_ros.diagnosis import diagnose
-from tca_ros.diagnosis.data import Record, write_csv_record
-from tca_ros.diagnosis.generator import draw_effect_values, random_power_profile
-from tca_ros.diagnosis.realistic import draw_muscle
-from tca_ros.model.dynamics import simulate
+from tca_ros.diagnosis.realistic import conditions, OUTSIDE, RATES, realistic_case
 from tca_ros.model.effects import CATALOGUE
-from tca_ros.model.params import dump_params, GRAVITY
+from tca_ros.model.params import dump_params
 
 EFFECTS = [name for name in CATALOGUE if name != 'coil_contact']
 #: effects whose signature is a nominal parameter that calibration fits (the
 #: delivered power ratio): naming nothing after calibration is the right answer
 ABSORBED = ('power_loss',)
-OUTSIDE = ('sensor_nonlinearity', 'fatigue')
-RATES = (100.0, 5.0, 2.0, 1.0, 20.0)
 NULL = 'none'
 UNEXPLAINED = 'unexplained'
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -56,85 +50,10 @@ REAL_DIR = os.path.normpath(os.path.join(HERE, '..', '..', 'shared', 'realdata',
                                          'records'))
 
 
-def ar1(rng, n, rate, sigma, tau=2.0):
-    """Return AR(1) noise of std ``sigma`` and correlation time ``tau`` (s) at ``rate`` Hz."""
-    a = math.exp(-1.0 / (rate * tau))
-    out = np.zeros(n)
-    shocks = rng.standard_normal(n) * sigma * math.sqrt(1.0 - a * a)
-    for k in range(1, n):
-        out[k] = a * out[k - 1] + shocks[k]
-    return out
-
-
-def conditions(seed):
-    """Return the record conditions of ``seed`` (each a different share of the seeds)."""
-    return {'rate': RATES[seed % len(RATES)], 'plant': 'rod' if seed % 2 else 'cst',
-            'temperature': seed % 4 < 2, 'drift': seed % 3 == 0,
-            'nominal_power': seed % 3 == 1, 'noisy_power': seed % 3 == 2,
-            'jitter': seed % 4 == 1, 'not_at_rest': seed % 4 == 3}
-
-
-def make_case(seed, hidden, directory, duration=240.0):
-    """Write one record and its muscle description; return (record path, start path)."""
-    rng = np.random.default_rng(seed)
-    cond = conditions(seed)
-    start, truth, _, _ = draw_muscle(rng)
-    rate = cond['rate']
-    pre = 60.0 if cond['not_at_rest'] else 0.0
-    time_s = np.arange(int(round((duration + pre) * rate)) + 1) / rate - pre
-    power = random_power_profile(rng, time_s + pre)
-    if pre:  # heat 30-60 s before the record, then let it cool: it starts warm
-        power[time_s < 0.0] = np.where(time_s[time_s < 0.0] < -30.0, 0.5, 0.0)
-        power[(time_s >= 0.0) & (time_s < 3.0)] = 0.0
-    mass = rng.uniform(0.015, 0.04)
-    load = np.full_like(time_s, mass * GRAVITY)
-    truth = truth.with_values(**{'dynamics.mass': mass, 'dynamics.load': mass * GRAVITY})
-    inside = [h for h in hidden if h in CATALOGUE]
-    truth = truth.with_values(**draw_effect_values(rng, inside))
-    n = time_s.size
-    applied = power
-    if cond['nominal_power']:  # the plant got +-3 % slow variation, the log the command
-        applied = power * (1.0 + ar1(rng, n, rate, 0.03, tau=10.0))
-    sim = simulate(truth, time_s, applied, load, model=cond['plant'], physics_rate=500.0)
-    x = sim.displacement
-    if 'fatigue' in hidden:  # the actuation gain fades by 25 % over the record
-        gain = truth.fiber.untwist_gain
-        tired = simulate(truth.with_values(**{'fiber.untwist_gain': 0.75 * gain}), time_s,
-                         applied, load, model=cond['plant'], physics_rate=500.0)
-        share = np.clip(time_s / duration, 0.0, 1.0)
-        x = (1.0 - share) * x + share * tired.displacement
-    keep = time_s >= 0.0
-    time_s, power, load, x = time_s[keep], power[keep], load[keep], x[keep]
-    temperature = sim.temperature[keep]
-    n = time_s.size
-    if 'sensor_nonlinearity' in hidden:
-        x = x + 8.0 * (x - x[0]) ** 2  # 8 /m: 0.8 mm read extra at 10 mm
-    x = x + ar1(rng, n, rate, 20e-6) + 3e-6 * rng.standard_normal(n)
-    if cond['drift']:
-        x = x + rng.choice([-1.0, 1.0]) * rng.uniform(0.1e-3, 0.4e-3) * time_s / time_s[-1]
-    x = np.round(x / 2e-6) * 2e-6
-    logged = power + (0.01 * power.max() * rng.standard_normal(n) if cond['noisy_power']
-                      else 0.0)
-    logged = np.maximum(logged, 0.0)
-    stamps = time_s.copy()
-    if cond['jitter']:  # +-20 % of the period; the reader resamples onto the grid
-        stamps[1:-1] += rng.uniform(-0.2, 0.2, n - 2) / rate
-    temperature = (temperature + 0.2 * rng.standard_normal(n)) if cond['temperature'] else None
-    start_path = os.path.join(directory, f'start_{seed}.yaml')
-    dump_params(start.with_values(model='cst'), start_path)
-    record = Record(time=stamps, power=logged, load=load, displacement=x - x[0],
-                    temperature=temperature,
-                    meta={'tca': os.path.basename(start_path), 'mass_kg': round(mass, 6),
-                          'sample_rate_hz': rate})
-    path = os.path.join(directory, f'record_{seed}.csv')
-    write_csv_record(record, path)
-    return path, start_path
-
-
 def run_case(args):
     """Diagnose one case; return a dict row of the table."""
     seed, hidden, directory = args
-    path, start = make_case(seed, hidden, directory)
+    path, start = realistic_case(seed, hidden, directory)
     t0 = time.perf_counter()
     try:
         result = diagnose(path, start, progress=False)

@@ -12,7 +12,7 @@ import numpy as np
 
 from tca_ros.diagnosis import diagnose, format_summary
 from tca_ros.diagnosis.data import write_csv_record
-from tca_ros.diagnosis.realistic import bench_record, realistic_set
+from tca_ros.diagnosis.realistic import bench_record, realistic_case, realistic_set
 from tca_ros.model.dynamics import simulate
 from tca_ros.model.params import dump_params, GRAVITY
 
@@ -57,3 +57,36 @@ def test_without_calibration_the_same_record_blames_effects(tmp_path):
     result = diagnose(path, start, progress=False, model='cst', calibrate_first=False)
     print(format_summary(result))
     assert result.effects or result.helpful or result.verdict == 'unexplained'
+
+
+# Records as bench_diagnosis_real.py makes them (realistic_case): a random muscle, the
+# rod model as the plant and cst in the fits, AR(1) + white noise, 2 um quantisation,
+# a drift, power logged as the nominal command (the plant got +-3 % slow variation),
+# 160 s at 5 Hz or 2 Hz, no temperature. The diagnosis calibrates first.
+REALISTIC = dict(duration=160.0, plant='rod', temperature=False, nominal_power=True,
+                 drift=True)
+
+
+def test_realistic_null_record_names_nothing(tmp_path):
+    path, start = realistic_case(31, [], str(tmp_path), rate=5.0, **REALISTIC)
+    result = diagnose(path, start, progress=False)
+    print(format_summary(result))
+    assert result.effects == [] and result.helpful == []
+    assert result.verdict == 'adequate', result.explanation
+
+
+def test_realistic_hidden_friction_is_named(tmp_path):
+    path, start = realistic_case(33, ['friction'], str(tmp_path), rate=5.0, **REALISTIC)
+    result = diagnose(path, start, progress=False)
+    print(format_summary(result))
+    assert result.effects == ['friction'], result.explanation
+    assert result.verdict == 'explained'
+    assert result.gain_percent > 20.0
+
+
+def test_realistic_fatigue_outside_the_catalogue_is_unexplained(tmp_path):
+    path, start = realistic_case(35, ['fatigue'], str(tmp_path), rate=2.0, **REALISTIC)
+    result = diagnose(path, start, progress=False)
+    print(format_summary(result))
+    assert result.effects == [], result.explanation
+    assert result.verdict == 'unexplained', result.explanation
