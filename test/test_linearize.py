@@ -219,7 +219,8 @@ def test_cli_linearize_refuses_hysteresis(tmp_path, capsys, free_stroke):
 
 
 def test_toolkit_imports_neither_rclpy_nor_matplotlib():
-    code = ('import sys, tca_ros.toolkit.linearize; print(sorted(m for m in sys.modules if '
+    code = ('import sys, tca_ros.toolkit.linearize, tca_ros.toolkit.envs; '
+            'print(sorted(m for m in sys.modules if '
             "m.split('.')[0] in ('rclpy', 'matplotlib') or m.startswith('tca_ros.node')))")
     out = subprocess.run([sys.executable, '-c', code], capture_output=True, text=True,
                          check=True).stdout.strip()
