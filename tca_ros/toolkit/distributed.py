@@ -23,6 +23,13 @@ import numpy as np
 SCHEDULER_ENV = 'TCA_DASK_SCHEDULER'  # address of an existing cluster's scheduler
 
 
+def import_model():
+    """Import the physics layer in a worker (a fresh worker spends seconds on SciPy)."""
+    import tca_ros.model.dynamics  # noqa: F401
+    import tca_ros.model.rod_model  # noqa: F401
+    import tca_ros.toolkit.batch  # noqa: F401
+
+
 @contextmanager
 def dask_client(scheduler=None, n_workers=None):
     """Yield a dask.distributed Client: to ``scheduler`` (address), else a local cluster.
@@ -34,12 +41,16 @@ def dask_client(scheduler=None, n_workers=None):
         environment variable TCA_DASK_SCHEDULER, else a LocalCluster.
     n_workers : int, optional
         Worker processes of the local cluster (default: the number of cores).
+
+    Every worker imports the physics layer first (import_model), so the first
+    items do not pay for it.
     """
     from dask.distributed import Client, LocalCluster
     address = scheduler or os.environ.get(SCHEDULER_ENV)
     if address:
         client = Client(address)
         try:
+            client.run(import_model)
             yield client
         finally:
             client.close()
@@ -47,6 +58,7 @@ def dask_client(scheduler=None, n_workers=None):
     workers = int(n_workers or os.cpu_count() or 1)
     with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
                       dashboard_address=None) as cluster, Client(cluster) as client:
+        client.run(import_model)
         yield client
 
 

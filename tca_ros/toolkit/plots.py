@@ -63,3 +63,31 @@ def save_bode(curves, path, title=''):
     fig.savefig(path, dpi=110)
     plt.close(fig)
     return path
+
+
+def save_task_plot(run, path, title=''):
+    """Write a PNG of one scored run: reference and displacement, temperature, power.
+
+    ``run`` is a dict of tca_ros.toolkit.scoring.run_task (SI units, degC).
+    """
+    import matplotlib
+    matplotlib.use('Agg')
+    import matplotlib.pyplot as plt
+    t = run['time']
+    fig, axes = plt.subplots(3, 1, sharex=True, figsize=(7.5, 6.0))
+    axes[0].plot(t, 1e3 * run['reference'], 'k--', label='reference')
+    axes[0].plot(t, 1e3 * run['displacement'], label='displacement')
+    axes[0].set_ylabel('contraction (mm)')
+    axes[0].legend(fontsize=7, loc='upper right')
+    axes[1].plot(t, run['temperature'], color='tab:red')
+    axes[1].set_ylabel('temperature (degC)')
+    axes[2].step(t, run['power'], where='post', color='tab:orange')
+    axes[2].set_ylabel('power (W)')
+    axes[2].set_xlabel('time (s)')
+    for ax in axes:
+        ax.grid(True, lw=0.3)
+    axes[0].set_title(title or run['task'], fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return path
