@@ -56,6 +56,9 @@ def cmd_linearize(args, out):
     _check(args)
     overrides = {'model': args.model} if args.model else {}
     params = load_params(checked_config(args.config), **overrides)
+    if params.model == 'rod' and params.coil.shape != 'helix':
+        raise InputError(f"--model = 'rod': its dynamics need coil.shape helix (this TCA is "
+                         f'{params.coil.shape}); use --model cst or love')
     try:
         plants = {drive: linearize(params, args.power, args.load, drive=drive)
                   for drive in ('power', 'voltage')}
