@@ -451,6 +451,8 @@ def build_parser():
     add_config_parser(sub)
     from tca_ros.cli_calibrate import add_parser as add_calibrate_parser
     add_calibrate_parser(sub)
+    from tca_ros.cli_toolkit import add_parser as add_toolkit_parser
+    add_toolkit_parser(sub)
 
     sp = sub.add_parser('demo', formatter_class=fmt, help='the main job of `make demo`')
     common(sp, model=False)

@@ -1,0 +1,167 @@
+"""f_rod of Eq. (18) for N muscles at once: CST (29) and the rod model's table.
+
+NumPy forms of tca_ros.model.kinetostatics.CstModel and
+tca_ros.model.rod_model.RodKinetostatics, one value per muscle; parameters are
+arrays of shape (N,) gathered once from each muscle's TcaParams. Each function
+evaluates the same relation as its scalar original (equation numbers of [1]);
+test/test_batch.py checks them against it.
+
+References
+----------
+[1] J. Sun and J. Zhao, IEEE Trans. Robot., 2022.
+"""
+import math
+
+import numpy as np
+
+from tca_ros.model.kinetostatics import natural_length
+from tca_ros.model.rod_model import cached_rod_model
+
+
+class MuscleArrays:
+    """The parameters f_rod reads, one array of shape (N,) per scalar (SI, rad, degC)."""
+
+    def __init__(self, params_list):
+        def gather(getter):
+            return np.array([float(getter(p)) for p in params_list])
+        self.n = len(params_list)
+        self.fiber_length = gather(lambda p: p.fiber.length)  # l_t, m
+        self.fiber_radius = gather(lambda p: p.fiber.radius)  # r_t*, m
+        self.natural_length = gather(lambda p: natural_length(p.fiber, p.coil))  # l*, m
+        self.coil_radius = gather(lambda p: p.coil.radius)  # r*, m
+        self.cos_pitch = gather(lambda p: math.cos(p.coil.pitch_angle))  # cos alpha*
+        self.ambient = gather(lambda p: p.thermal.ambient_temperature)  # T0, degC
+        self.gamma = [gather(lambda p, i=i: p.fiber.gamma_coefficients[i]) for i in range(3)]
+        self.twist = gather(lambda p: p.fiber.untwist_gain * p.fiber.inserted_twist)  # rad/m
+        m = [p.moduli for p in params_list]
+        self.constant = np.array([x.constant for x in m])
+        self.heated = np.array([p.fiber.heated_radius_in_section and not p.moduli.constant
+                                for p in params_list])
+        self.youngs = np.array([x.youngs_modulus for x in m])  # E0, Pa
+        self.shear = np.array([x.shear_modulus for x in m])  # G0, Pa
+        self.fiber_modulus = np.array([x.fiber_modulus for x in m])  # E_f0, Pa
+        self.softening = np.array([x.fiber_softening for x in m])  # k_T, Pa/K
+        self.extra_softening = gather(lambda p: p.effects.extra_softening)  # Pa/K
+        self.mu = [np.array([x.load_coefficients[i] for x in m]) for i in range(3)]
+        self.max_tau = np.array([x.max_torsion_strain for x in m])  # 1/m
+        self.floor = np.array([x.fiber_modulus_floor for x in m])  # -
+        polar = math.pi * self.fiber_radius ** 4 / 2.0  # J of the unheated fiber, m^4
+        self.tau_per_newton = self.fiber_radius * self.cos_pitch / (self.shear * polar)
+
+
+def radius_ratio(temp, c):
+    """Return Gamma(T) (-) of Eq. (2) per muscle; T in degC."""
+    c2, c1, c0 = c.gamma
+    return (c2 * temp + c1) * temp + c0
+
+
+def unit_untwist(temp, c):
+    """Return Delta theta_bar^h (rad/m), Eq. (4): theta* (Gamma(T0)/Gamma(T) - 1)."""
+    return c.twist * (radius_ratio(c.ambient, c) / radius_ratio(temp, c) - 1.0)
+
+
+def modulus_ratio(temp, tension, c):
+    """Return E_f / E_f0 (-) of Eq. (11) at T (degC) and tension F (N), floored.
+
+        tau = F r_t cos(alpha*) / (G0 J) in [0, tau_max],
+        E_f = E_f0 - (k_T lambda(tau) + extra) (T - T0)
+    """
+    tau = np.clip(tension * c.tau_per_newton, 0.0, c.max_tau)
+    lam = (c.mu[0] * tau + c.mu[1]) * tau + c.mu[2]
+    softening = c.softening * lam + c.extra_softening
+    ratio = np.maximum(1.0 - softening * (temp - c.ambient) / c.fiber_modulus, c.floor)
+    return np.where(c.constant, 1.0, ratio)
+
+
+def cst_tension(elongation, temp, tension, c):
+    """Return f_rod (N) of CST, Eq. (29), with the moduli at ``tension`` (N), Eq. (11).
+
+        F = (y - A_cst Delta theta_bar^h) / (1/K_cst),
+        1/K = l_t (r^2 cos^2 a / GJ + r^2 sin^2 a / EI + cos^2 a / GA + sin^2 a / EA),
+        A_cst = l_t r cos a,  sin a = (l* + y) / l_t  (Eq. (26))
+    """
+    sin_a = np.clip((c.natural_length + elongation) / c.fiber_length, -1.0, 1.0)
+    s2 = sin_a * sin_a
+    c2 = 1.0 - s2
+    ratio = modulus_ratio(temp, tension, c)
+    r = np.where(c.heated, c.fiber_radius * radius_ratio(temp, c) / radius_ratio(c.ambient, c),
+                 c.fiber_radius)
+    area = math.pi * r * r
+    second_moment = area * r * r / 4.0
+    e = c.youngs * ratio
+    g = c.shear * ratio
+    r2 = c.coil_radius * c.coil_radius
+    compliance = c.fiber_length * (r2 * c2 / (2.0 * g * second_moment)
+                                   + r2 * s2 / (e * second_moment)
+                                   + c2 / (g * area) + s2 / (e * area))
+    a_cst = c.fiber_length * c.coil_radius * np.sqrt(c2)
+    return (elongation - a_cst * unit_untwist(temp, c)) / compliance
+
+
+class RodTables:
+    """The rod model's f_rod tables (rod_model._Table) of N muscles, stacked.
+
+    Muscles with the same mechanical parameters share one table; each muscle
+    indexes its own by offsets into flat arrays. Evaluation follows
+    RodKinetostatics._evaluate: linear in T, cubic Hermite in eta = y - y_free(T),
+    linear extrapolation with the edge stiffness beyond the table.
+    """
+
+    def __init__(self, params_list):
+        models, owner, tables = {}, [], []
+        for p in params_list:
+            model = cached_rod_model(p)
+            if id(model) not in models:
+                models[id(model)] = len(tables)
+                tables.append(model._table)
+            owner.append(models[id(model)])
+        owner = np.array(owner)
+        self.owner = owner  # index of each muscle's table
+        starts = np.cumsum([0] + [t.n_temp * t.n_eta for t in tables])[:-1]
+        free_starts = np.cumsum([0] + [t.n_temp for t in tables])[:-1]
+        self.n_tables = len(tables)
+        self.force = np.concatenate([np.asarray(t.force) for t in tables])  # N
+        self.slope = np.concatenate([np.asarray(t.slope) for t in tables])  # N/m
+        self.free = np.concatenate([np.asarray(t.free) for t in tables])  # m
+
+        def per_muscle(name):
+            return np.array([getattr(t, name) for t in tables], dtype=float)[owner]
+        self.temp0, self.temp_step = per_muscle('temp0'), per_muscle('temp_step')
+        self.n_temp = per_muscle('n_temp').astype(np.int64)
+        self.eta0, self.eta_step = per_muscle('eta0'), per_muscle('eta_step')
+        self.n_eta = per_muscle('n_eta').astype(np.int64)
+        self.start = starts[owner]
+        self.free_start = free_starts[owner]
+
+    def _row(self, j, u):
+        """Hermite value (N) and slope (N/m) at flat cell index j, fraction u."""
+        step = self.eta_step
+        f0, f1 = self.force[j], self.force[j + 1]
+        d0, d1 = self.slope[j] * step, self.slope[j + 1] * step
+        u2 = u * u
+        u3 = u2 * u
+        value = ((2 * u3 - 3 * u2 + 1) * f0 + (u3 - 2 * u2 + u) * d0
+                 + (3 * u2 - 2 * u3) * f1 + (u3 - u2) * d1)
+        slope = ((6 * u2 - 6 * u) * f0 + (3 * u2 - 4 * u + 1) * d0
+                 + (6 * u - 6 * u2) * f1 + (3 * u2 - 2 * u) * d1) / step
+        return value, slope
+
+    def evaluate(self, elongation, temp):
+        """Return (f_rod (N), d f_rod / d y (N/m)) at y (m) and T (degC) per muscle."""
+        t = np.clip((temp - self.temp0) / self.temp_step, 0.0, self.n_temp - 1.000001)
+        i = t.astype(np.int64)
+        w = t - i
+        f = self.free_start + i
+        free = self.free[f] + w * (self.free[f + 1] - self.free[f])
+        x = (elongation - free - self.eta0) / self.eta_step
+        last = self.n_eta - 1
+        k = np.clip(x.astype(np.int64), 0, last - 1)
+        k = np.where(x < 0.0, 0, k)
+        u = np.clip(x - k, 0.0, 1.0)
+        extra = (np.where(x < 0.0, x, 0.0) + np.where(x >= last, x - last, 0.0)) \
+            * self.eta_step
+        j = self.start + i * self.n_eta + k
+        f_a, k_a = self._row(j, u)
+        f_b, k_b = self._row(j + self.n_eta, u)
+        slope = k_a + w * (k_b - k_a)
+        return f_a + w * (f_b - f_a) + slope * extra, slope

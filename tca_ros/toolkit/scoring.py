@@ -1,0 +1,94 @@
+"""Score a controller on the task set, in-process against TcaSimulator.
+
+The loop is the node's lockstep one: at each control tick t_k the controller sees
+the state and the reference r(t_k) and returns a power (W), clamped to
+[0, max_power] and held over [t_k, t_k+1) while the physics steps; the load
+follows the task. A controller is any callable ``controller(t, setpoint, state)``
+returning W, ``state`` a TcaState (displacement in ``measured_displacement``, m);
+``law_controller`` wraps an object with ``update(setpoint, measurement, dt)``
+(the law of tca_pid). Each task starts from the loaded equilibrium at ambient
+with a fresh controller. Deterministic: same controller, same scores.
+"""
+import numpy as np
+
+from tca_ros.model.dynamics import static_displacement, TcaSimulator
+from tca_ros.toolkit.tasks import OVERHEAT_MARGIN, REFERENCE_TEMPERATURE, score
+
+MAX_TEMPERATURE = 180.0  # degC, the node's default overheat limit
+MAX_POWER = 5.0  # W, the node's default driver limit
+METRICS = (('rms_error', 'mm', 1e3), ('max_error', 'mm', 1e3), ('overshoot', '%', 1.0),
+           ('settling_time', 's', 1.0), ('energy', 'J', 1.0),
+           ('peak_temperature', 'degC', 1.0), ('time_above_max', 's', 1.0))
+
+
+def law_controller(law_factory):
+    """Return a controller factory around ``law_factory()``'s update(setpoint, y, dt).
+
+    The law gets the setpoint and measured displacement (m) and the time since its
+    last call (s; 0 at the first) and returns the power (W), as tca_pid's
+    PidController does.
+    """
+    def factory():
+        law = law_factory()
+        last = [None]
+
+        def controller(t, setpoint, state):
+            dt = 0.0 if last[0] is None else t - last[0]
+            last[0] = t
+            return law.update(setpoint, state.measured_displacement, dt)
+        return controller
+    return factory
+
+
+def stroke_scales(params, model=None, max_temperature=MAX_TEMPERATURE):
+    """Return (S, S_hot) (m): static contractions at REFERENCE_TEMPERATURE and near max."""
+    p = params
+    temps = [p.thermal.ambient_temperature, REFERENCE_TEMPERATURE,
+             max_temperature - OVERHEAT_MARGIN]
+    x = static_displacement(p, p.dynamics.load, temps, model=model)
+    return float(x[1]), float(x[2])
+
+
+def run_task(task, params, controller_factory, model=None, control_rate=100.0,
+             physics_rate=1000.0, max_temperature=MAX_TEMPERATURE, max_power=MAX_POWER):
+    """Run one task; return a dict of sample arrays (SI, degC) and its metrics.
+
+    ``controller_factory()`` returns a fresh controller callable per task.
+    """
+    controller = controller_factory()
+    dt = 1.0 / control_rate
+    substeps = max(1, int(round(physics_rate / control_rate)))
+    sim = TcaSimulator(params, model=model, dt=dt / substeps)
+    stroke, hot = stroke_scales(params, sim.kinetostatics.name, max_temperature)
+    n = int(round(task.duration * control_rate))
+    t = np.arange(n + 1) * dt
+    reference = task.reference(t, stroke, hot)
+    load = task.load(t, params.dynamics.load)
+    state = sim.reset(load=load[0])
+    rows = np.empty((n + 1, 3))  # displacement (m), temperature (degC), power (W)
+    for k in range(n + 1):
+        power = min(max(float(controller(t[k], reference[k], state)), 0.0), max_power)
+        rows[k] = state.measured_displacement, state.temperature, power
+        if k < n:
+            for _ in range(substeps):
+                state = sim.step(power, load[k])
+    run = {'task': task.name, 'time': t, 'reference': reference, 'load': load,
+           'displacement': rows[:, 0], 'temperature': rows[:, 1], 'power': rows[:, 2]}
+    run['metrics'] = score(t, reference, rows[:, 0], rows[:, 1], rows[:, 2], max_temperature)
+    return run
+
+
+def run_tasks(tasks, params, controller_factory, **options):
+    """Return [run_task(...)] for each task, in order."""
+    return [run_task(task, params, controller_factory, **options) for task in tasks]
+
+
+def format_table(runs, title=''):
+    """Return the score table of ``runs`` as Markdown (one row per task)."""
+    head = '| task | ' + ' | '.join(f'{name} ({unit})' for name, unit, _ in METRICS) + ' |'
+    lines = [title, '', head, '|' + '---|' * (len(METRICS) + 1)] if title else \
+        [head, '|' + '---|' * (len(METRICS) + 1)]
+    for run in runs:
+        cells = [f'{run["metrics"][name] * scale:.4g}' for name, _, scale in METRICS]
+        lines.append(f'| {run["task"]} | ' + ' | '.join(cells) + ' |')
+    return '\n'.join(lines)
