@@ -70,6 +70,11 @@ _SPACES = {
     'effects.friction_force': (ParameterSpace('effects.friction_force', 0.0, 0.1),
                                (0.005, 0.02, 0.05)),
 }
+#: Nominal parameters a recalibration may move while an effect is fitted: name ->
+#: (factor below, factor above) the calibrated value. Actuation gain (stroke per
+#: kelvin), delivered power (steady rise) and specific heat (time constant).
+RECALIBRATION = {'fiber.untwist_gain': (0.6, 1.6), 'thermal.delivered_power_ratio': (0.7, 1.4),
+                 'fiber.specific_heat': (0.6, 1.6)}
 CONTACT_START_FRACTIONS = (0.9, 0.75, 0.6, 0.45)  # stop at these fractions of the peak
 CONTACT_MARGIN_DEG = 0.05  # alpha_min stays this far below alpha* (validation rule)
 
@@ -143,3 +148,18 @@ def build_candidates(params, model, load0, peak_contraction, names=None,
             starts = [s + (v,) for s in starts for v in grid]
         out.append(Candidate(name, spaces, tuple(starts)))
     return out
+
+
+def recalibration_spaces(params):
+    """Return (ParameterSpaces, their current values) of RECALIBRATION around ``params``.
+
+    Log-scaled between the factors of RECALIBRATION times the calibrated value;
+    the values are the dotted names' present values (schema units).
+    """
+    spaces, values = [], {}
+    for name, (low, high) in RECALIBRATION.items():
+        section, field_name = name.split('.')
+        value = float(getattr(getattr(params, section), field_name))
+        spaces.append(ParameterSpace(name, low * value, high * value, log=True))
+        values[name] = value
+    return tuple(spaces), values

@@ -201,6 +201,9 @@ class FitProblem:
         self.coarse_measured = {c: self.measured[c][self.index] for c in self.channels}
         self.correction = {}  # kind of coarse simulation -> {channel: defect correction}
         self.reduced = reduced
+        # nominal parameters refitted with every refined candidate and every polish, so an
+        # effect gets no credit for what a recalibration absorbs (set by diagnose)
+        self.recalibration = ()
         self.base_values = {}
         self._cache = {}
         self._full_cache = {}
@@ -545,7 +548,7 @@ def _greedy(problem, candidates, max_effects, refine_top, min_gain_percent, firs
         # forward selection with refit: the effects already found are refitted jointly
         # with each refined candidate, so an earlier effect that absorbed part of this
         # one's signature can give it back
-        free = tuple(s for name in found for s in spaces_of[name])
+        free = tuple(s for name in found for s in spaces_of[name]) + problem.recalibration
 
         def evaluate(trials, cand, refine):
             fit = problem.fit(cand, trials[0][1], refine=refine, free=free if refine else ())
@@ -594,7 +597,7 @@ def polish_effects(problem, found, spaces_of, max_nfev=POLISH_NFEV):
     """
     from tca_ros.diagnosis.candidates import Candidate
     values = dict(problem.base_values)
-    spaces = tuple(s for name in found for s in spaces_of[name])
+    spaces = tuple(s for name in found for s in spaces_of[name]) + problem.recalibration
     joint = Candidate('+'.join(found), spaces, ())
     fit = problem.fit(joint, [values[s.name] for s in spaces], refine=True,
                       max_nfev=max_nfev)

@@ -10,7 +10,8 @@ import time as wallclock
 
 import numpy as np
 
-from tca_ros.diagnosis.candidates import build_candidates
+from tca_ros.diagnosis.candidates import build_candidates, RECALIBRATION, \
+    recalibration_spaces
 from tca_ros.diagnosis.data import read_record, record_config
 from tca_ros.diagnosis.fitting import FitProblem, Progress, search_effects
 from tca_ros.diagnosis.record_ops import decimated, leading_part
@@ -194,10 +195,16 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
         from tca_ros.diagnosis.data import DataError
         bar.close()
         raise DataError(f'{paths[1]}: row 1, column {"temperature"!r}: {exc}') from None
+    start_values = {}
+    if cal is not None or calibrated:  # the nominal parameters stay free in the search
+        spaces, start_values = recalibration_spaces(params)
+        problem.recalibration = spaces
+        for p in problems:
+            p.recalibration = spaces
     bar.label = 'nominal'
     try:
-        problem.set_base({})
-        nominals = [p.simulate_full({}) for p in problems]
+        problem.set_base(start_values)
+        nominals = [p.simulate_full(start_values) for p in problems]
     except (ValueError, ArithmeticError) as exc:  # StabilityError is a ValueError
         bar.close()
         raise DiagnosisError(f'{data_path}: the nominal model cannot simulate this record '
@@ -354,12 +361,16 @@ def format_summary(result):
                          f'{rnd.base_score:.2f} -> {best.heldout_score:.2f} sigma, '
                          f'{"added" if rnd.accepted else "not significant"}')
     lines.append('')
+    own = {k: v for k, v in result.extended_values.items() if k not in RECALIBRATION}
     if result.effects:
         lines.append('effects found: ' + ', '.join(result.effects))
-        lines.append('  ' + '; '.join(_format_value(k, v)
-                                      for k, v in result.extended_values.items()))
+        lines.append('  ' + '; '.join(_format_value(k, v) for k, v in own.items()))
     else:
         lines.append('effects found: none')
+    refit = {k: v for k, v in result.extended_values.items() if k in RECALIBRATION}
+    if refit and (result.effects or result.helpful):
+        lines.append('  nominal parameters refitted with them: '
+                     + '; '.join(_format_value(k, v) for k, v in refit.items()))
     if result.helpful:
         lines.append('improve the fit but leave structure (not a cause): '
                      + ', '.join(result.helpful))

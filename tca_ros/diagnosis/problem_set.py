@@ -31,6 +31,7 @@ class FitProblemSet(FitProblem):
         self.sample_rate = first.sample_rate
         self.sigma = first.sigma
         self.full_split = first.full_split
+        self.recalibration = ()
 
     @property
     def base_values(self):
