@@ -90,3 +90,24 @@ def test_realistic_fatigue_outside_the_catalogue_is_unexplained(tmp_path):
     print(format_summary(result))
     assert result.effects == [], result.explanation
     assert result.verdict == 'unexplained', result.explanation
+
+
+def test_several_records_of_one_muscle_are_diagnosed_together(tmp_path, capsys):
+    # three step records of one random muscle (1-3 powers), one calibration, no effect
+    from tca_ros.cli import main
+    s = realistic_set(41, drift=0.0)
+    start = tmp_path / 'start.yaml'
+    dump_params(s.start, str(start))
+    paths = []
+    for i, r in enumerate(s.records):
+        r.meta['tca'] = str(start)
+        paths.append(str(tmp_path / f'step_{i}.csv'))
+        write_csv_record(r, paths[-1])
+    code = main(['diagnose', *paths, '--quiet', '--report', str(tmp_path / 'rep')])
+    out = capsys.readouterr().out
+    assert code == 0, out
+    assert 'with 2 more record(s) of the same muscle' in out
+    doc = json.loads((tmp_path / 'rep' / 'diagnosis.json').read_text())
+    assert doc['records'] == paths
+    assert doc['calibrated']['thermal_time_constant']['determined'] is True
+    assert doc['effects'] == [], out

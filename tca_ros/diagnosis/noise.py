@@ -224,7 +224,11 @@ def structure_test(segments, swing, rate_hz=STRUCTURE_RATE_HZ, floor_share=STRUC
     else:
         f = max((ssr0 - ssr1) / q / (ssr1 / dof), 0.0)
         p = float(stats.f.sf(f, q, dof))
-    predictable = np.concatenate([x @ beta[k:] - np.mean(x @ beta[k:]) for x in xs])
+    # the size of the predictable part from the unwhitened least-squares projection
+    # (at most the residual itself); the GLS fit above only decides significance
+    raw, *_ = np.linalg.lstsq(np.vstack([np.column_stack([u, x]) for u, x in zip(nuis, xs)]),
+                              np.concatenate(es), rcond=None)
+    predictable = np.concatenate([x @ raw[k:] - np.mean(x @ raw[k:]) for x in xs])
     predictable_ms = float(np.mean(predictable ** 2))
     noise_rms = math.sqrt(max(native_ms - predictable_ms, 0.0))  # at the record rate
     floor = max(floor_share * swing, noise_share * noise_rms)
