@@ -38,6 +38,7 @@ def record_node(log_dir, bag_path):
     """Run the node in lockstep, drive it, write the MCAP; return the joint samples."""
     from rclpy.serialization import serialize_message
     from rosbags.rosbag2 import StoragePlugin, Writer
+    from rosbags.typesys import get_typestore, Stores
     from rclpy.qos import QoSProfile
     probe = Probe()
     rows = {name: [] for name in ('joint_states', 'temperature', 'power_cmd', 'load')}
@@ -81,7 +82,9 @@ def record_node(log_dir, bag_path):
              'temperature': 'sensor_msgs/msg/Temperature',
              'power_cmd': 'std_msgs/msg/Float64', 'load': 'std_msgs/msg/Float64'}
     with Writer(bag_path, version=9, storage_plugin=StoragePlugin.MCAP) as writer:
-        conns = {name: writer.add_connection(f'/{name}', kind) for name, kind in types.items()}
+        store = get_typestore(Stores.ROS2_JAZZY)
+        conns = {name: writer.add_connection(f'/{name}', kind, typestore=store)
+                 for name, kind in types.items()}
         merged = sorted((ns, name, msg) for name, items in rows.items() for ns, msg in items)
         for ns, name, msg in merged:
             writer.write(conns[name], ns, serialize_message(msg))
