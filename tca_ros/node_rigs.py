@@ -1,7 +1,8 @@
 """The rig's own topics on the ``tca`` node (rig.mode; docs/rigs.md, docs/node.md).
 
 - spring, isometric: ``force`` (std_msgs/Float64, N), the TCA tension a gauge in
-  series reads (isometric: the force the clamp holds);
+  series reads (isometric: the force the clamp holds), also the effort of
+  ``joint_states``;
 - antagonistic: ``antagonist/power_cmd`` in (W, clamped to [0, max_power], zero
   after ``command_timeout`` as ``power_cmd``); out ``force`` and
   ``antagonist/force`` (N), ``antagonist/temperature`` (degC), and
@@ -102,10 +103,16 @@ class RigTopics:
         self._values = values
 
     def joint(self, displacement, rate, tension):
-        """Return (position, velocity, effort) of joint_states: the joint's for the pair."""
+        """Return (position, velocity, effort) of joint_states: the joint's for the pair.
+
+        On the spring rig the effort is the TCA tension, not the spring-and-TCA force
+        the stepper carries.
+        """
+        v = self._values
         if self.mode == ANTAGONISTIC:
-            v = self._values
             return [v['angle']], [v['angular_velocity']], [v['torque']]
+        if self.mode == SPRING:
+            return [displacement], [rate], [v['force']]
         return [displacement], [rate], [tension]
 
     def publish(self, stamp, frame_id):
