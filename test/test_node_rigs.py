@@ -20,6 +20,8 @@ pytestmark = pytest.mark.timeout(120)
 FAST = ('-p', 'publish_clock:=true', '-p', 'real_time_factor:=0.0',
         '-p', 'command_timeout:=0.0')
 KINETOSTATICS = make_kinetostatic_model(load_params('free_stroke', model='cst'))
+JOINT_DAMPING = 2e-4 + 2 * 0.01 ** 2 * 0.5  # N m s/rad, c + 2 r_p^2 b_t (rig defaults)
+JOINT_LAG = JOINT_DAMPING / (0.01 ** 2 * 2 * 22.5)  # s, over r_p^2 (k_1 + k_2)
 
 
 def _now(probe):
@@ -66,6 +68,9 @@ def test_gauge_rigs_publish_the_tca_force(tmp_path, probe, rig):
         _start(probe, node)
         probe.publish('power_cmd', Float64(data=1.0))
         _run_for(probe, 12.0, node)
+        # the rig decides the topics: fixed while the node runs (docs/rigs.md, R-e)
+        refused, = probe.set_params('tca', rig__mode='dead_weight')
+        assert not refused.successful and 'read-only' in refused.reason
     finally:
         assert node.stop() == 0, node.log()
     joint, temperature = _last_common(probe, 'joint_states', 'temperature')
@@ -108,10 +113,11 @@ def test_antagonistic_node_turns_its_joint_both_ways(tmp_path, probe):
     temp_1, temp_2 = heated_1.temperature, heated_2.temperature
     assert temp_1 > 90.0 and 30.0 < temp_2 < 45.0  # 1 W and 0.2 W
     angle, force = antagonistic_rest_angle(KINETOSTATICS, temp_1, temp_2, 0.05, 0.01)
-    # At 12 s T_1 still rises ~0.5 K/s; the joint (settling in ~0.1 s) trails its rest
-    # angle by ~0.1 s x 0.5 K/s x 5 mrad/K = 2.5e-4 rad of 0.38 rad: 2e-3 below.
-    assert forward.position[0] == pytest.approx(angle, rel=2e-3)
-    assert abs(forward.effort[0]) < 1e-3 * 0.01 * force  # net torque ~0 (N m)
-    assert force_1 == pytest.approx(force, rel=2e-3)  # last samples: within a tick
-    assert force_2 == pytest.approx(force, rel=2e-3)
+    # T_1 still rises when the sample is taken (how much depends on when the command
+    # arrived in sim time): the joint trails its rest angle by its lag c_eff / (r^2 2k)
+    # times its speed, and the net torque is the damping torque c_eff theta'
+    speed = abs(forward.velocity[0])
+    assert abs(forward.position[0] - angle) <= 2.0 * JOINT_LAG * speed + 1e-5
+    assert abs(forward.effort[0]) <= 2.0 * JOINT_DAMPING * speed + 1e-7
+    assert force > 0.1 and abs(force_1 - force_2) < 0.02 * force_1  # balanced tendons
     assert backward.position[0] < -0.2  # the antagonist pulls the joint back past zero
