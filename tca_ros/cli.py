@@ -18,7 +18,7 @@ import numpy as np
 from tca_ros.cli_common import checked_config, InputError
 from tca_ros.diagnosis.data import ABSOLUTE_ZERO_DEGC, clip, DataError, MAX_LOAD_N, \
     MAX_POWER_W, NUMBER, parse_number, read_text_lines
-from tca_ros.model.params import GRAVITY, load_params, MODELS, ParameterError
+from tca_ros.model.params import GRAVITY, load_params, MODELS, ParameterError, RIG_MODES
 
 EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT = 0, 1, 2
 MAX_TEMPERATURE_DEGC = 1000.0  # statics bound: nylon melts near 260 degC, so far above
@@ -67,6 +67,9 @@ def count(text):
 
 
 # -- input profiles -------------------------------------------------------------------
+PROFILE_COLUMNS = ('time', 'power', 'load')  # the dead-weight rig's input columns
+
+
 def read_profile(path, max_rows=None):
     """Return (time (s), power (W), load (N) or None) from a CSV with a header row.
 
@@ -74,6 +77,16 @@ def read_profile(path, max_rows=None):
     0..MAX_POWER_W, load 0..MAX_LOAD_N (tensile), times finite and increasing.
     ``max_rows`` bounds the rows read. Raises InputError or DataError naming the
     row (1-based, header = row 1) and column of the first bad value.
+    """
+    data = read_profile_columns(path, max_rows)
+    return data['time'], data['power'], data.get('load')
+
+
+def read_profile_columns(path, max_rows=None, allowed=PROFILE_COLUMNS):
+    """Return {column: array} of a profile CSV whose columns are among ``allowed``.
+
+    ``time`` and ``power`` are required; ``power_2`` (W, the antagonist's power)
+    is checked as ``power``. Errors as in read_profile.
     """
     header, data, header_row = None, {}, 0
     for row, line in read_text_lines(path, max_rows):
@@ -85,7 +98,7 @@ def read_profile(path, max_rows=None):
             raise InputError(f'{path}: row {row}: not CSV ({exc})') from None
         if header is None:
             header, header_row = [h.strip() for h in cells], row
-            _check_profile_header(header, path, row)
+            _check_profile_header(header, path, row, allowed)
             data = {name: [] for name in header}
             continue
         if len(cells) != len(header):
@@ -103,31 +116,31 @@ def read_profile(path, max_rows=None):
         i = int(bad[0]) + 1
         raise InputError(f"{path}: row {header_row + i + 1}, column 'time': {t[i]:g} s is "
                          f'not after {t[i - 1]:g} s (time must increase)')
-    load = np.array(data['load']) if 'load' in data else None
-    return t, np.array(data['power']), load
+    return {name: np.array(values) for name, values in data.items()}
 
 
-def _check_profile_header(header, path, row):
+def _check_profile_header(header, path, row, allowed=PROFILE_COLUMNS):
+    names = ','.join(allowed)
     for name in ('time', 'power'):
         if name not in header:
             raise InputError(f"{path}: row {row}: missing column '{name}' "
-                             f"(found {clip(','.join(header))}; allowed time,power,load)")
-    unknown = [h for h in header if h not in ('time', 'power', 'load')]
+                             f"(found {clip(','.join(header))}; allowed {names})")
+    unknown = [h for h in header if h not in allowed]
     if unknown:
         raise InputError(f'{path}: row {row}: unknown column {clip(unknown[0])!r} '
-                         '(allowed time,power,load)')
+                         f'(allowed {names})')
     dup = [h for h in header if header.count(h) > 1]
     if dup:
         raise InputError(f"{path}: row {row}: column '{dup[0]}' appears twice "
-                         '(each of time,power,load at most once)')
+                         f'(each of {names} at most once)')
 
 
 def _check_profile_value(name, value, path, row):
     if name == 'load' and value < 0.0:
         raise InputError(f"{path}: row {row}, column 'load': {value:g} N is compressive; "
                          'allowed >= 0 (tensile)')
-    if name == 'power' and not 0.0 <= value <= MAX_POWER_W:
-        raise InputError(f"{path}: row {row}, column 'power': {value:g} W is out of range; "
+    if name in ('power', 'power_2') and not 0.0 <= value <= MAX_POWER_W:
+        raise InputError(f'{path}: row {row}, column {name!r}: {value:g} W is out of range; '
                          f'allowed 0 to {MAX_POWER_W:g} W (Joule heating)')
     if name == 'load' and value > MAX_LOAD_N:
         raise InputError(f"{path}: row {row}, column 'load': {value:g} N is out of range; "
@@ -143,6 +156,8 @@ def resample_hold(t_in, values, t_out):
 # -- subcommands ---------------------------------------------------------------------
 def _params(args):
     overrides = {'model': args.model} if getattr(args, 'model', None) else {}
+    if getattr(args, 'rig', None):
+        overrides['rig.mode'] = args.rig
     return load_params(checked_config(args.config), **overrides)
 
 
@@ -249,14 +264,22 @@ def write_shapes(path, temps, shapes):
     plt.close(fig)
 
 
+#: Profile columns per load rig (rig.mode; docs/rigs.md).
+RIG_PROFILE_COLUMNS = {'dead_weight': PROFILE_COLUMNS, 'spring': PROFILE_COLUMNS,
+                       'isometric': ('time', 'power'),
+                       'antagonistic': ('time', 'power', 'power_2')}
+
+
 def cmd_simulate(args, out):
-    """Print CSV time,power,load,displacement,temperature,resistance for a profile."""
-    from tca_ros.model.dynamics import simulate
+    """Print the CSV of the rig's columns (dead weight: time,power,load,...) for a profile."""
+    from tca_ros.model.rig_simulation import RIG_COLUMNS, simulate_rig
     for name, value in (('--rate', args.rate), ('--physics-rate', args.physics_rate)):
         if not value > 0.0:
             raise InputError(f'{name} = {value:g}: must be a positive rate in Hz')
     p = _params(args)
-    t_in, power_in, load_in = read_profile(args.input, max_rows=args.max_samples + 1000)
+    columns = read_profile_columns(args.input, max_rows=args.max_samples + 1000,
+                                   allowed=RIG_PROFILE_COLUMNS[p.rig.mode])
+    t_in = columns['time']
     span = t_in[-1] - t_in[0]
     samples = span * args.rate + 1.0
     steps = span * max(args.rate, args.physics_rate)
@@ -273,14 +296,14 @@ def cmd_simulate(args, out):
     if n > 1 and not np.all(np.diff(t) > 0.0):
         raise InputError(f"{args.input}: column 'time': {t_in[0]:g} s is too large for "
                          f'steps of 1/{args.rate:g} s (they vanish in rounding)')
-    power = resample_hold(t_in, power_in, t)
-    load = None if load_in is None else resample_hold(t_in, load_in, t)
-    res = simulate(p, t, power, load, physics_rate=args.physics_rate)
-    check_finite({'displacement': res.displacement, 'temperature': res.temperature,
-                  'resistance': res.resistance}, res.time, 's')
-    out.write('time,power,load,displacement,temperature,resistance\n')
-    for row in zip(res.time, res.power, res.load, res.displacement, res.temperature,
-                   res.resistance):
+    held = {name: resample_hold(t_in, values, t) for name, values in columns.items()
+            if name != 'time'}
+    res = simulate_rig(p, t, held['power'], held.get('load'), held.get('power_2'),
+                       physics_rate=args.physics_rate)
+    names = RIG_COLUMNS[p.rig.mode]
+    check_finite({name: res.columns[name] for name in names[1:]}, t, 's')
+    out.write(','.join(names) + '\n')
+    for row in zip(*(res.columns[name] for name in names)):
         out.write(','.join(f'{v:.9g}' for v in row) + '\n')
     return EXIT_OK
 
@@ -404,7 +427,12 @@ def build_parser():
     sp = sub.add_parser('simulate', formatter_class=fmt,
                         help='dynamics for a power (W) / load (N) profile CSV')
     common(sp)
-    sp.add_argument('--input', required=True, help='CSV with columns time,power[,load]')
+    sp.add_argument('--input', required=True,
+                    help='CSV with columns time,power[,load] (W, N); isometric rig: '
+                         'time,power; antagonistic rig: time,power[,power_2] (docs/rigs.md)')
+    sp.add_argument('--rig', choices=RIG_MODES, default=None,
+                    help="load rig (default: the config's rig.mode; its parameters rig.* "
+                         'come from the config)')
     sp.add_argument('--rate', type=finite_float, default=100.0, help='output sample rate (Hz)')
     sp.add_argument('--physics-rate', type=finite_float, default=1000.0,
                     help='physics step rate (Hz)')

@@ -34,6 +34,7 @@ from tca_ros.model.dynamics import StabilityError
 from tca_ros.model.kinetostatics import fixed_coil_centreline
 from tca_ros.model.params import from_flat_dict, ParameterError, SCHEMA, SPECS
 from tca_ros.model.resistance import power_from_voltage
+from tca_ros.model.rigs import start_load
 from tca_ros.model.rod_model import centreline as rod_centreline
 from tca_ros.node_params import (  # noqa: F401  (re-exported: the node's parameter API)
     build_simulator, check_model_supports, check_ros_arguments, check_unknown_overrides,
@@ -41,6 +42,7 @@ from tca_ros.node_params import (  # noqa: F401  (re-exported: the node's parame
     integral_doubles_as_integers, log_fatal, model_for_node, NAMESPACED, namespaced_name,
     NODE_SCHEMA, NODE_SPECS, physics_dt, physics_steps_per_tick, READ_ONLY, REBUILD,
     validate_node_values)
+from tca_ros.node_rigs import RigTopics
 
 
 STATE_QOS = QoSProfile(depth=10)  # reliable: serves reliable and best-effort readers
@@ -95,7 +97,7 @@ class TcaSimNode(Node):
         self._drive = ('power', 0.0)  # last valid command: ('power', W) or ('voltage', V)
         self._last_command_ns = None  # node time of the last valid command
         self._watchdog_tripped = False
-        self._load = self._params.dynamics.load
+        self._load = start_load(self._params)  # N: dead weight, or the spring's F_0
         self._power = 0.0  # W, applied in the last physics step
         self._broken = False
         self._failure = None  # why the physics stopped (None while it runs)
@@ -132,6 +134,8 @@ class TcaSimNode(Node):
                                                      self._on_voltage_cmd, COMMAND_QOS)
         self.create_subscription(Float64, 'load', self._on_load, COMMAND_QOS)
         self.create_service(Trigger, '~/reset', self._on_reset)
+        self._rig = RigTopics(self, self._params.rig.mode, lambda: self._cfg,
+                              self._command_time)
 
         self._owns_time = self._cfg['publish_clock']
         self._wall = Clock(clock_type=ClockType.STEADY_TIME)
@@ -340,6 +344,7 @@ class TcaSimNode(Node):
         ~/reset or a parameter change (one error line, not one per step).
         """
         now = self._now_ns()
+        self._rig.drive(self._sim, now, self._broken)
         for i in range(n_steps):
             if self._failure is not None:
                 return
@@ -354,7 +359,7 @@ class TcaSimNode(Node):
             if bad:
                 self._fail(f'{bad} = {getattr(state, bad)!r} (non-finite state)')
                 return
-            temp = state.temperature
+            temp = self._rig.hottest(self._sim)
             if temp > self._cfg['max_temperature'] and not self._overheated:
                 self._overheated = True
                 self.get_logger().error(
@@ -432,6 +437,7 @@ class TcaSimNode(Node):
         temperature += self._noise('temperature')
         self._sample = (_time_msg(now_ns), displacement, rate, tension, res, temperature,
                         self._power)
+        self._rig.sample(self._sim, self._broken)
         self._emit_sample()
         rate = self._cfg['shape_rate']
         if rate > 0.0 and self._failure is None and now_ns >= self._next_shape_ns and \
@@ -454,9 +460,8 @@ class TcaSimNode(Node):
             joint = JointState()
             joint.header.stamp = stamp
             joint.name = [self._cfg['joint_name']]
-            joint.position = [displacement]
-            joint.velocity = [rate]
-            joint.effort = [tension]
+            joint.position, joint.velocity, joint.effort = self._rig.joint(
+                displacement, rate, tension)
             self._joint_pub.publish(joint)
         if self._temp_pub.get_subscription_count():
             temp = Temperature()
@@ -469,6 +474,7 @@ class TcaSimNode(Node):
                            (self._power_pub, power)):
             if pub.get_subscription_count():
                 pub.publish(Float64(data=value))
+        self._rig.publish(stamp, self._cfg['frame_id'])
 
     def _rod_shape(self):
         """Return True when the shape comes from the rod solution.
@@ -515,16 +521,20 @@ class TcaSimNode(Node):
         return False
 
     def _command(self, kind, value):
-        if not self._owns_time:
-            self._catch_up()  # the old command holds up to now (zero-order hold)
+        self._last_command_ns = self._command_time()
         self._drive = (kind, value)
-        self._last_command_ns = self._now_ns()
         if self._watchdog_tripped:
             self._watchdog_tripped = False
             self.get_logger().info('commands are back: watchdog cleared')
         if self._awaiting_command:
             self._awaiting_command = False
             self._run_ticks()
+
+    def _command_time(self):
+        """Return the node time (ns) of a command, the physics caught up to it."""
+        if not self._owns_time:
+            self._catch_up()  # the old command holds up to now (zero-order hold)
+        return self._now_ns()
 
     def _on_power_cmd(self, msg):
         if not self._valid('power_cmd', msg.data):
@@ -608,13 +618,14 @@ class TcaSimNode(Node):
             elif rebuild:
                 sim = build_simulator(params, cfg, changed=[p.name for p in owned])
                 temperature = self._start_temperature()
+                load = self._load if params.rig == self._params.rig else start_load(params)
                 try:  # the node's load and temperature, not the file's: refuse if no state
-                    sim.reset(load=self._load, temperature=temperature)
+                    sim.reset(load=load, temperature=temperature)
                     if _non_finite(sim.state):
                         raise ValueError(f'{_non_finite(sim.state)} is not finite')
                 except (ValueError, ArithmeticError) as exc:
                     raise ParameterError(
-                        f'{str(exc).splitlines()[0]} (at the applied load {self._load:g} N, '
+                        f'{str(exc).splitlines()[0]} (at the applied load {load:g} N, '
                         f'{temperature if temperature is not None else "ambient"} degC)') \
                         from None
         except StabilityError as exc:
@@ -625,7 +636,7 @@ class TcaSimNode(Node):
         old_cfg, self._cfg = self._cfg, cfg
         if rebuild:
             if params != self._params:
-                self._params, self._sim = params, sim
+                self._params, self._sim, self._load = params, sim, load
                 self._reset_sim(temperature)
                 self._warm_up_shape()
             self._t0_ns, self._steps_done = None, 0

@@ -27,9 +27,10 @@ from rclpy.parameter import Parameter
 from rclpy.parameter_service import ParameterService
 import yaml
 
-from tca_ros.model.dynamics import StabilityError, TcaSimulator
+from tca_ros.model.dynamics import StabilityError
 from tca_ros.model.params import (check_value, ParameterError, ParamSpec, SCHEMA, SPECS,
                                   to_flat_dict)
+from tca_ros.model.rigs import make_rig
 
 #: Node parameters (beside the TCA SCHEMA); validated with the same check_value.
 NODE_SCHEMA = (
@@ -74,7 +75,8 @@ NODE_SCHEMA = (
 NODE_SPECS = {s.name: s for s in NODE_SCHEMA}
 #: Names whose default is prefixed by the node's namespace (/finger1: finger1/tca_joint).
 NAMESPACED = frozenset({'frame_id', 'base_frame', 'joint_name'})
-READ_ONLY = frozenset({'publish_clock'})  # the time source cannot change while running
+# the time source and the rig (its topics) cannot change while running
+READ_ONLY = frozenset({'publish_clock', 'rig.mode'})
 #: Node parameters that require a new simulator when changed.
 REBUILD = frozenset({'physics_rate', 'publish_rate'})
 #: Prefixes of parameters rclpy declares itself (QoS overrides of the publishers).
@@ -156,14 +158,14 @@ def physics_dt(node_values):
 
 
 def build_simulator(params, node_values, kinetostatics=None, changed=()):
-    """Return a TcaSimulator for params and node values, or raise ParameterError.
+    """Return the simulator of params.rig.mode (make_rig), or raise ParameterError.
 
     Model failures and the explicit stability limit become one-line ParameterErrors
     naming the parameter: the one in ``changed`` (names just set) that shapes the
     model, else the first that differs from its default.
     """
     try:
-        return TcaSimulator(params, dt=physics_dt(node_values), kinetostatics=kinetostatics)
+        return make_rig(params, dt=physics_dt(node_values), kinetostatics=kinetostatics)
     except StabilityError as exc:
         raise ParameterError(f'{exc} (physics_rate = {node_values["physics_rate"]:g} Hz)') \
             from None

@@ -11,11 +11,13 @@ CSV layout (SI units, temperatures in degC)::
 
 ``time`` (s), ``power`` (W, electrical), ``load`` (N, tensile) and ``displacement``
 (m, contraction from the state at the start of the record, which begins at
-ambient) are required; ``temperature`` (degC) and ``resistance`` (ohm) are
-optional. A rosbag2 recording of the node's own topics (``power_cmd``, ``load``,
-``displacement``, ``temperature``; any namespace) is read with ``rosbags`` and
-resampled onto a uniform grid. Every malformed input raises ``DataError`` with one
-line naming the file, the row (1-based line number) and the column.
+ambient) are required; ``temperature`` (degC), ``resistance`` (ohm) and ``force``
+(N, tensile, a gauge in series: the isometric and spring rigs, docs/rigs.md) are
+optional; ``force`` is read, not yet fitted. A rosbag2 recording of the node's own
+topics (``power_cmd``, ``load``, ``displacement``, ``temperature``; any namespace) is
+read with ``rosbags`` and resampled onto a uniform grid. Every malformed input
+raises ``DataError`` with one line naming the file, the row (1-based line number)
+and the column.
 """
 from dataclasses import dataclass, field, replace
 import math
@@ -27,7 +29,7 @@ import numpy as np
 from tca_ros.model.params import GRAVITY, SPECS
 
 REQUIRED_COLUMNS = ('time', 'power', 'load', 'displacement')
-OPTIONAL_COLUMNS = ('temperature', 'resistance')
+OPTIONAL_COLUMNS = ('temperature', 'resistance', 'force')
 REQUIRED_HEADER = ('tca', 'mass_kg', 'sample_rate_hz')
 JITTER_TOLERANCE = 0.01  # relative spread of sample intervals accepted as uniform
 RATE_TOLERANCE = 0.05  # relative mismatch allowed between sample_rate_hz and the time column
@@ -51,6 +53,8 @@ ABSOLUTE_ZERO_DEGC = -273.15
 # allowed values (low, high, unit): power is dissipated (>= 0), load is tensile
 VALUE_RANGES = {'power': (0.0, MAX_POWER_W, 'W'), 'power_cmd': (0.0, MAX_POWER_W, 'W'),
                 'load': (0.0, MAX_LOAD_N, 'N'), 'resistance': (0.0, math.inf, 'ohm'),
+                # a gauge reads a slack muscle slightly negative: both signs allowed
+                'force': (-MAX_LOAD_N, MAX_LOAD_N, 'N'),
                 'temperature': (ABSOLUTE_ZERO_DEGC, math.inf, 'degC')}
 DEFAULT_JOINT = 'tca_joint'  # the node's default joint_name
 TIME, DISPLACEMENT = 'time', 'displacement'  # column names quoted in errors
@@ -74,6 +78,8 @@ class Record:
         Measured contraction (m) from the state at the start of the record.
     temperature, resistance : ndarray, shape (n,), or None
         Measured fiber temperature (degC) and resistance (ohm) when recorded.
+    force : ndarray, shape (n,), or None
+        Measured tension (N) of a gauge in series (isometric or spring rig).
     meta : dict
         Header values: ``tca`` (config name), ``mass_kg`` (kg), ``sample_rate_hz``
         (Hz) and any other ``# key: value`` lines, as strings or floats.
@@ -92,6 +98,7 @@ class Record:
     meta: dict = field(default_factory=dict)
     source: str = ''
     meta_rows: dict = field(default_factory=dict)  # header key -> line number (1-based)
+    force: np.ndarray = None  # N, optional gauge column (after meta: positional callers)
 
     @property
     def sample_rate(self):
@@ -269,7 +276,7 @@ def read_csv_record(path, max_samples=None):
     record = Record(time=data['time'] - data['time'][0], power=data['power'],
                     load=data['load'], displacement=data['displacement'],
                     temperature=data.get('temperature'), resistance=data.get('resistance'),
-                    meta=meta, source=str(path), meta_rows=meta_rows)
+                    meta=meta, source=str(path), meta_rows=meta_rows, force=data.get('force'))
     _check_rate(record, path, header_row)
     return uniform_record(record)
 
@@ -364,7 +371,7 @@ def uniform_record(record, rate=None):
     return replace(record, time=grid, power=record.power[hold], load=record.load[hold],
                    displacement=interp(record.displacement),
                    temperature=interp(record.temperature),
-                   resistance=interp(record.resistance))
+                   resistance=interp(record.resistance), force=interp(record.force))
 
 
 def write_csv_record(record, path, comments=()):
@@ -380,7 +387,7 @@ def write_csv_record(record, path, comments=()):
             columns.append(name)
             arrays.append(value)
     formats = {'time': '%.4f', 'power': '%.5f', 'load': '%.5f', 'displacement': '%.4e',
-               'temperature': '%.3f', 'resistance': '%.4f'}
+               'temperature': '%.3f', 'resistance': '%.4f', 'force': '%.6f'}
     with open(path, 'w', encoding='utf-8') as fh:
         for key in REQUIRED_HEADER:
             fh.write(f'# {key}: {record.meta[key]}\n')

@@ -32,6 +32,8 @@ NODE_NAME = 'tca'
 TCA_TYPES = ('self_coiled', 'free_stroke', 'conical')
 MODELS = ('rod', 'cst', 'love')
 SHAPES = ('helix', 'conical')
+#: Load modes of the free end (tca_ros.model.rigs, docs/rigs.md).
+RIG_MODES = ('dead_weight', 'spring', 'isometric', 'antagonistic')
 
 
 class ParameterError(ValueError):
@@ -153,6 +155,22 @@ SCHEMA = (
        'Friction: Coulomb (kinetic) force opposing the motion of the free end.', 0.0, 100.0),
     _p('effects.static_friction_ratio', 1.0, '-',
        'Friction: static over kinetic force (> 1: stick-slip jumps).', 1.0, 10.0),
+    # Load rig of the free end (tca_ros.model.rigs, docs/rigs.md)
+    _p('rig.mode', 'dead_weight', '-',
+       'Load on the free end: dead_weight (eq. (18) as printed), spring (in series), '
+       'isometric (held at its length), antagonistic (two muscles on a pulley joint).',
+       choices=RIG_MODES),
+    _p('rig.spring_stiffness', 20.0, 'N/m', 'Spring rig: stiffness k_s of the series spring.',
+       0.0, 1e6),
+    _p('rig.pretension', 0.05, 'N',
+       'Spring, isometric and antagonistic rigs: tension at the reference state (ambient).',
+       0.0, 1e3),
+    _p('rig.pulley_radius', 0.01, 'm', 'Antagonistic rig: pulley radius r_p of the joint.',
+       1e-4, 1.0),
+    _p('rig.joint_inertia', 1e-5, 'kg m^2', 'Antagonistic rig: moment of inertia J of the joint.',
+       1e-9, 1e3),
+    _p('rig.joint_damping', 2e-4, 'N m s/rad', 'Antagonistic rig: viscous damping c of the joint.',
+       0.0, 1e3),
 )
 
 SPECS = {s.name: s for s in SCHEMA}
@@ -305,6 +323,18 @@ class EffectParams:
 
 
 @dataclass(frozen=True)
+class RigParams:
+    """Load rig (docs/rigs.md): k_s (N/m), pretension (N), r_p (m), J (kg m^2), c (N m s/rad)."""
+
+    mode: str = 'dead_weight'
+    spring_stiffness: float = 20.0
+    pretension: float = 0.05
+    pulley_radius: float = 0.01
+    joint_inertia: float = 1e-5
+    joint_damping: float = 2e-4
+
+
+@dataclass(frozen=True)
 class TcaParams:
     """All parameters of one TCA, SI units (temperatures in degC)."""
 
@@ -318,6 +348,7 @@ class TcaParams:
     electrical: ElectricalParams
     effects: EffectParams = field(default_factory=EffectParams)
     source: str = ''
+    rig: RigParams = field(default_factory=RigParams)
 
     def with_values(self, **dotted):
         """Return a copy with dotted-name overrides, e.g. ``{'dynamics.mass': 0.05}``."""
@@ -330,7 +361,7 @@ class TcaParams:
 _DEG = {'bias_angle_deg', 'pitch_angle_deg', 'cone_angle_deg', 'min_pitch_angle_deg'}
 _GROUPS = {'fiber': FiberParams, 'coil': CoilParams, 'thermal': ThermalParams,
            'moduli': ModuliParams, 'dynamics': DynamicsParams,
-           'electrical': ElectricalParams, 'effects': EffectParams}
+           'electrical': ElectricalParams, 'effects': EffectParams, 'rig': RigParams}
 
 
 def _field_name(key):

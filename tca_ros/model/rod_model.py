@@ -30,7 +30,7 @@ from scipy.optimize import brentq
 from tca_ros.model.fiber import unit_untwist
 from tca_ros.model.kinetostatics import cst_compliance, KinetostaticModel
 from tca_ros.model.moduli import load_torsion_strain, section_stiffness
-from tca_ros.model.params import EffectParams
+from tca_ros.model.params import EffectParams, RigParams
 from tca_ros.rod.helix import helix_centreline, uniform_helix_equilibrium
 from tca_ros.rod.reference import conical_spiral_reference, helix_reference, helix_strain
 from tca_ros.rod.reference import integrate_strains
@@ -310,7 +310,8 @@ def mechanical_params(params):
                    dynamics=replace(params.dynamics, mass=0.0, load=0.0, damping=0.0),
                    electrical=replace(params.electrical, resistance=1.0,
                                       temperature_coefficient=0.0, strain_coefficient=0.0),
-                   effects=EffectParams(extra_softening=params.effects.extra_softening))
+                   effects=EffectParams(extra_softening=params.effects.extra_softening),
+                   rig=RigParams())
 
 
 @functools.lru_cache(maxsize=8)

@@ -1,0 +1,34 @@
+"""Records of a rig with a force gauge (isometric tests): the force column is read."""
+import numpy as np
+import pytest
+
+from tca_ros.diagnosis.data import DataError, read_record, Record, write_csv_record
+from tca_ros.model.params import load_params
+from tca_ros.model.rig_simulation import simulate_rig
+
+
+def test_isometric_record_with_a_force_column_round_trips(tmp_path):
+    params = load_params('free_stroke', model='cst', **{'rig.mode': 'isometric'})
+    t = np.arange(0.0, 6.0, 0.1)
+    out = simulate_rig(params, t, np.where(t < 3.0, 1.0, 0.0)).columns
+    rec = Record(time=t, power=out['power'], load=np.zeros_like(t),
+                 displacement=np.zeros_like(t), temperature=out['temperature'],
+                 force=out['force'],
+                 meta={'tca': 'free_stroke', 'mass_kg': 0.0, 'sample_rate_hz': 10.0})
+    path = tmp_path / 'isometric.csv'
+    write_csv_record(rec, str(path))
+    assert path.read_text().splitlines()[3] == \
+        'time,power,load,displacement,temperature,force'
+    back = read_record(str(path))
+    np.testing.assert_allclose(back.force, out['force'], atol=1e-6)  # written to 1 uN
+    assert back.force.max() > 0.1 and back.resistance is None  # 0.05 N heated 3 s
+
+
+def test_force_out_of_range_names_row_and_column(tmp_path):
+    lines = ['# tca: free_stroke', '# mass_kg: 0', '# sample_rate_hz: 10',
+             'time,power,load,displacement,force']
+    lines += [f'{0.1 * i:.1f},0.5,0,0,{0.05 if i != 7 else 2e6}' for i in range(25)]
+    path = tmp_path / 'bad.csv'
+    path.write_text('\n'.join(lines) + '\n')
+    with pytest.raises(DataError, match=r"row 12, column 'force': 2e\+06 N is out of range"):
+        read_record(str(path))
