@@ -37,9 +37,9 @@ from tca_ros.model.resistance import power_from_voltage
 from tca_ros.model.rod_model import centreline as rod_centreline
 from tca_ros.node_params import (  # noqa: F401  (re-exported: the node's parameter API)
     build_simulator, check_model_supports, check_ros_arguments, check_unknown_overrides,
-    descriptor, GuardedParameterService, init_quietly, INTEGER_NAMES,
-    integral_doubles_as_integers, log_fatal, model_for_node, NAMESPACED, namespaced_name,
-    NODE_SCHEMA, NODE_SPECS, physics_dt, physics_steps_per_tick, READ_ONLY, REBUILD,
+    descriptor, GuardedParameterService, init_quietly, INTEGER_NAMES, log_fatal,
+    model_for_node, NAMESPACED, namespaced_name, NODE_SCHEMA, NODE_SPECS,
+    numbers_as_declared_types, physics_dt, physics_steps_per_tick, READ_ONLY, REBUILD,
     validate_node_values)
 
 
@@ -82,13 +82,14 @@ class TcaSimNode(Node):
             self.set_parameters([Parameter('model', value=self._params.model)])
         self._cfg = validate_node_values(node_values)
         self._sim = build_simulator(self._params, self._cfg)
-        # 1000.0 from a params file is stored as the INTEGER it names (keeps the type).
-        self.set_parameters(integral_doubles_as_integers(
-            [self.get_parameter(name) for name in sorted(INTEGER_NAMES)]))
+        # 1000.0 from a params file is stored as the INTEGER it names, 25 for a DOUBLE
+        # as 25.0: every parameter keeps its declared type.
+        self.set_parameters(numbers_as_declared_types(
+            [self.get_parameter(spec.name) for spec, _ in all_specs]))
         # Ranges only now: a bad start-up value gets the schema's one-line message above.
         for spec, read_only in all_specs:
             self.set_descriptor(spec.name, descriptor(spec, read_only))
-        self.add_pre_set_parameters_callback(integral_doubles_as_integers)
+        self.add_pre_set_parameters_callback(numbers_as_declared_types)
         self.add_on_set_parameters_callback(self._on_set_parameters)
 
         self._rng = np.random.default_rng(int(self._cfg['noise.seed']))

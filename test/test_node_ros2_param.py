@@ -53,7 +53,9 @@ def _values(probe, client, names):
 
 @pytest.fixture(scope='module')
 def tca(tmp_path_factory):
-    node = start_tca(tmp_path_factory.mktemp('ros2_param'))
+    # integers for a DOUBLE parameter and a double for an INTEGER one, as -p gives them
+    node = start_tca(tmp_path_factory.mktemp('ros2_param'), '-p', 'max_load:=8',
+                     '-p', 'thermal.ambient_temperature_degc:=25', '-p', 'shape_points:=200.0')
     yield node
     assert node.stop() == 0, node.log()
     assert 'Traceback' not in node.log()
@@ -66,12 +68,28 @@ def probe(tca):
     probe.close()
 
 
+def test_every_parameter_keeps_its_declared_type_from_start_up(probe):
+    from tca_ros.model.params import SCHEMA
+    from tca_ros.node_params import NODE_SCHEMA
+    kinds = {bool: ParameterType.PARAMETER_BOOL, int: ParameterType.PARAMETER_INTEGER,
+             float: ParameterType.PARAMETER_DOUBLE, str: ParameterType.PARAMETER_STRING,
+             list: ParameterType.PARAMETER_DOUBLE_ARRAY}
+    declared = {s.name: kinds[type(s.default)] for s in SCHEMA + NODE_SCHEMA}
+    client = AsyncParameterClient(probe, 'tca')
+    assert client.wait_for_services(10.0)
+    names = sorted(declared)
+    values = _wait(probe, client.get_parameters(names)).values
+    assert {n: v.type for n, v in zip(names, values)} == declared
+    started = _values(probe, client, ['max_load', 'thermal.ambient_temperature_degc',
+                                      'shape_points'])
+    assert started == {'max_load': 8.0, 'thermal.ambient_temperature_degc': 25.0,
+                       'shape_points': 200}
+
+
 @pytest.mark.parametrize('name, text, kind', [
     ('dynamics.load', '0.3', ParameterType.PARAMETER_DOUBLE),
-    # A YAML integer for a DOUBLE parameter is accepted but stored as an INTEGER: the
-    # parameter changes type (the pre-set callback converts only the other way round).
-    pytest.param('max_load', '8', ParameterType.PARAMETER_DOUBLE, marks=pytest.mark.xfail(
-        strict=True, reason='open: an integer for a double parameter changes its type')),
+    ('max_load', '9', ParameterType.PARAMETER_DOUBLE),  # a YAML integer: stored as 9.0
+    ('moduli.youngs_modulus', '1.2e+9', ParameterType.PARAMETER_DOUBLE),
     ('shape_points', '20', ParameterType.PARAMETER_INTEGER),
     ('physics_rate', '2000.0', ParameterType.PARAMETER_INTEGER),  # stays an integer
     ('model', 'love', ParameterType.PARAMETER_STRING),
@@ -79,6 +97,7 @@ def probe(tca):
     ('fiber.gamma_coefficients', '[3.54e-6, -6.705e-5, 1.0017]',
      ParameterType.PARAMETER_DOUBLE_ARRAY),
     ('moduli.load_coefficients', '[3.2e-4, -0.027, 1.0]', ParameterType.PARAMETER_DOUBLE_ARRAY),
+    ('moduli.load_coefficients', '[0, 0, 1]', ParameterType.PARAMETER_DOUBLE_ARRAY),  # integers
 ])
 def test_ros2_param_set_of_every_type(probe, name, text, kind):
     result = _ros2_param_set(probe, 'tca', name, text)
@@ -95,6 +114,18 @@ def test_ros2_param_set_of_every_type(probe, name, text, kind):
     ('fiber.gamma_coefficients', '[1.0, 2.0]',
      "parameter 'fiber.gamma_coefficients' = [1.0, 2.0]: must be a list of 3 finite"),
     ('max_temperature', '300.0', 'must be above max_temperature (300 degC)'),
+    # YAML 1.1 (ros2 param set) reads an exponent without a point or a sign as a string
+    ('dynamics.mass', '1e-9', "parameter 'dynamics.mass' = '1e-9' (a string, not a number): "
+     'must be a finite number in [0, 1000] kg (YAML 1.1, as ros2 param set reads it, takes '
+     '1e-9 for a string: write 1.0e-9)'),
+    ('moduli.youngs_modulus', '1.2e9', 'takes 1.2e9 for a string: write 1.2e+9'),
+    ('physics_rate', '2e3', "parameter 'physics_rate' = '2e3' (a string, not a number): must "
+     'be an integer in [1, 100000] Hz (YAML 1.1, as ros2 param set reads it, takes 2e3 for a '
+     'string: write 2.0e+3)'),
+    ('fiber.gamma_coefficients', '[1e-6, -6.7e-5, 1.0]',
+     "= '[1e-6, -6.7e-5, 1.0]' (a string, not a list): must be a list of 3 finite numbers"),
+    ('fiber.gamma_coefficients', '[3.54e-6, -6.705e-5, 1]',
+     'sends a list mixing integers and floats as a string: write the integers as floats'),
 ])
 def test_ros2_param_set_refusals_give_the_reason(tca, probe, name, text, reason):
     result = _ros2_param_set(probe, 'tca', name, text)
