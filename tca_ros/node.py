@@ -5,8 +5,9 @@ Inputs (std_msgs/Float64): ``power_cmd`` (W), ``voltage_cmd`` (V, heating V^2 / 
 positive), ``temperature`` (sensor_msgs/Temperature, degC), ``resistance`` (ohm),
 ``power`` (W, the power actually applied), ``joint_states`` (position = displacement,
 velocity = contraction rate, effort = tension), and ``shape`` (visualization_msgs/Marker)
-at ``shape_rate``. The physics (tca_ros.model.dynamics.TcaSimulator) runs at
-``physics_rate``. Time modes, parameters and examples: docs/node.md.
+at ``shape_rate``; the muscle's state goes to ``/diagnostics`` (tca_ros.node_diagnostics).
+The physics (tca_ros.model.dynamics.TcaSimulator) runs at ``physics_rate``. Time modes,
+parameters and examples: docs/node.md.
 """
 import math
 import sys
@@ -35,6 +36,7 @@ from tca_ros.model.kinetostatics import fixed_coil_centreline
 from tca_ros.model.params import from_flat_dict, ParameterError, SCHEMA, SPECS
 from tca_ros.model.resistance import power_from_voltage
 from tca_ros.model.rod_model import centreline as rod_centreline
+from tca_ros.node_diagnostics import DiagnosticsPublisher, MuscleState
 from tca_ros.node_params import (  # noqa: F401  (re-exported: the node's parameter API)
     build_simulator, check_model_supports, check_ros_arguments, check_unknown_overrides,
     descriptor, GuardedParameterService, init_quietly, INTEGER_NAMES, log_fatal,
@@ -140,6 +142,8 @@ class TcaSimNode(Node):
             self._clock_pub = self.create_publisher(ClockMsg, '/clock', CLOCK_QOS)
         self._timer = None
         self._make_timer()
+        self._diagnostics = DiagnosticsPublisher(
+            self, self._muscle_state, lambda: _time_msg(self._now_ns()), self._wall)
         try:
             self._reset_sim()
         except (ValueError, ArithmeticError) as exc:  # one line at start-up, no traceback
@@ -409,6 +413,24 @@ class TcaSimNode(Node):
         self._power = 0.0
 
     # -- outputs ----------------------------------------------------------------------
+    def _muscle_state(self, now_ns=None):
+        """Return the MuscleState that /diagnostics reports (model values, no noise)."""
+        s, cfg = self._sim.state, self._cfg
+        if self._owns_time:
+            waiting = '' if self._started else (
+                'a controller (lockstep)' if cfg['lockstep'] else 'the first tick')
+        else:  # the clock read costs ~10 us: a tick passes its own time
+            now = self._now_ns() if now_ns is None else now_ns
+            waiting = 'the first /clock message' if now == 0 else ''
+        return MuscleState(
+            temperature=s.temperature if self._failure is None else self._last_good[2],
+            power=self._power, load=self._load,
+            displacement=self._frozen[0] if self._broken else s.measured_displacement,
+            max_temperature=cfg['max_temperature'], melt_temperature=cfg['melt_temperature'],
+            command_timeout=cfg['command_timeout'], overheated=self._overheated,
+            broken=self._broken, watchdog_tripped=self._watchdog_tripped,
+            failure=self._failure, waiting=waiting)
+
     def _noise(self, key):
         std = self._cfg['noise.' + key]
         return float(self._rng.normal(0.0, std)) if std > 0.0 else 0.0
@@ -443,6 +465,7 @@ class TcaSimNode(Node):
             self._next_shape_ns = now_ns + round(_NS / rate)
             self._next_shape_wall = time.monotonic() + 1.0 / rate
             self._publish_shape(self._sample[0])
+        self._diagnostics.update(self._muscle_state(now_ns))
 
     def _emit_sample(self):
         """Publish the last sample to the topics that have readers.
@@ -570,6 +593,7 @@ class TcaSimNode(Node):
         response.message = (f'reset to the loaded equilibrium at '
                             f'{self._sim.state.temperature:g} degC, load {self._load:g} N')
         self.get_logger().info(response.message)
+        self._diagnostics.update()
         return response
 
     # -- parameters -------------------------------------------------------------------
