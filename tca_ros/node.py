@@ -5,8 +5,9 @@ Inputs (std_msgs/Float64): ``power_cmd`` (W), ``voltage_cmd`` (V, heating V^2 / 
 positive), ``temperature`` (sensor_msgs/Temperature, degC), ``resistance`` (ohm),
 ``power`` (W, the power actually applied), ``joint_states`` (position = displacement,
 velocity = contraction rate, effort = tension), and ``shape`` (visualization_msgs/Marker)
-at ``shape_rate``. The physics (tca_ros.model.dynamics.TcaSimulator) runs at
-``physics_rate``. Time modes, parameters and examples: docs/node.md.
+at ``shape_rate``; the muscle's state goes to ``/diagnostics`` (tca_ros.node_diagnostics).
+The physics (tca_ros.model.dynamics.TcaSimulator) runs at ``physics_rate``. Time modes,
+parameters and examples: docs/node.md.
 """
 import math
 import sys
@@ -36,11 +37,12 @@ from tca_ros.model.params import from_flat_dict, ParameterError, SCHEMA, SPECS
 from tca_ros.model.resistance import power_from_voltage
 from tca_ros.model.rigs import start_load
 from tca_ros.model.rod_model import centreline as rod_centreline
+from tca_ros.node_diagnostics import DiagnosticsPublisher, MuscleState
 from tca_ros.node_params import (  # noqa: F401  (re-exported: the node's parameter API)
     build_simulator, check_model_supports, check_ros_arguments, check_unknown_overrides,
-    descriptor, GuardedParameterService, init_quietly, INTEGER_NAMES,
-    integral_doubles_as_integers, log_fatal, model_for_node, NAMESPACED, namespaced_name,
-    NODE_SCHEMA, NODE_SPECS, physics_dt, physics_steps_per_tick, READ_ONLY, REBUILD,
+    descriptor, GuardedParameterService, init_quietly, INTEGER_NAMES, log_fatal,
+    model_for_node, NAMESPACED, namespaced_name, NODE_SCHEMA, NODE_SPECS,
+    numbers_as_declared_types, physics_dt, physics_steps_per_tick, READ_ONLY, REBUILD,
     validate_node_values)
 from tca_ros.node_rigs import RigTopics
 
@@ -84,13 +86,14 @@ class TcaSimNode(Node):
             self.set_parameters([Parameter('model', value=self._params.model)])
         self._cfg = validate_node_values(node_values)
         self._sim = build_simulator(self._params, self._cfg)
-        # 1000.0 from a params file is stored as the INTEGER it names (keeps the type).
-        self.set_parameters(integral_doubles_as_integers(
-            [self.get_parameter(name) for name in sorted(INTEGER_NAMES)]))
+        # 1000.0 from a params file is stored as the INTEGER it names, 25 for a DOUBLE
+        # as 25.0: every parameter keeps its declared type.
+        self.set_parameters(numbers_as_declared_types(
+            [self.get_parameter(spec.name) for spec, _ in all_specs]))
         # Ranges only now: a bad start-up value gets the schema's one-line message above.
         for spec, read_only in all_specs:
             self.set_descriptor(spec.name, descriptor(spec, read_only))
-        self.add_pre_set_parameters_callback(integral_doubles_as_integers)
+        self.add_pre_set_parameters_callback(numbers_as_declared_types)
         self.add_on_set_parameters_callback(self._on_set_parameters)
 
         self._rng = np.random.default_rng(int(self._cfg['noise.seed']))
@@ -143,6 +146,8 @@ class TcaSimNode(Node):
             self._clock_pub = self.create_publisher(ClockMsg, '/clock', CLOCK_QOS)
         self._timer = None
         self._make_timer()
+        self._diagnostics = DiagnosticsPublisher(
+            self, self._muscle_state, lambda: _time_msg(self._now_ns()), self._wall)
         try:
             self._reset_sim()
         except (ValueError, ArithmeticError) as exc:  # one line at start-up, no traceback
@@ -413,6 +418,24 @@ class TcaSimNode(Node):
         self._power = 0.0
 
     # -- outputs ----------------------------------------------------------------------
+    def _muscle_state(self, now_ns=None):
+        """Return the MuscleState that /diagnostics reports (model values, no noise)."""
+        s, cfg = self._sim.state, self._cfg
+        if self._owns_time:
+            waiting = '' if self._started else (
+                'a controller (lockstep)' if cfg['lockstep'] else 'the first tick')
+        else:  # the clock read costs ~10 us: a tick passes its own time
+            now = self._now_ns() if now_ns is None else now_ns
+            waiting = 'the first /clock message' if now == 0 else ''
+        return MuscleState(
+            temperature=s.temperature if self._failure is None else self._last_good[2],
+            power=self._power, load=self._load,
+            displacement=self._frozen[0] if self._broken else s.measured_displacement,
+            max_temperature=cfg['max_temperature'], melt_temperature=cfg['melt_temperature'],
+            command_timeout=cfg['command_timeout'], overheated=self._overheated,
+            broken=self._broken, watchdog_tripped=self._watchdog_tripped,
+            failure=self._failure, waiting=waiting)
+
     def _noise(self, key):
         std = self._cfg['noise.' + key]
         return float(self._rng.normal(0.0, std)) if std > 0.0 else 0.0
@@ -448,6 +471,7 @@ class TcaSimNode(Node):
             self._next_shape_ns = now_ns + round(_NS / rate)
             self._next_shape_wall = time.monotonic() + 1.0 / rate
             self._publish_shape(self._sample[0])
+        self._diagnostics.update(self._muscle_state(now_ns))
 
     def _emit_sample(self):
         """Publish the last sample to the topics that have readers.
@@ -579,6 +603,7 @@ class TcaSimNode(Node):
         response.message = (f'reset to the loaded equilibrium at '
                             f'{self._sim.state.temperature:g} degC, load {self._load:g} N')
         self.get_logger().info(response.message)
+        self._diagnostics.update()
         return response
 
     # -- parameters -------------------------------------------------------------------

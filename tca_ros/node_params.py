@@ -221,20 +221,31 @@ def _is_integer_spec(spec):
 
 #: Names of the INTEGER parameters (node and TCA schemas).
 INTEGER_NAMES = frozenset(s.name for s in NODE_SCHEMA + SCHEMA if _is_integer_spec(s))
+#: Names of the DOUBLE and DOUBLE_ARRAY parameters (node and TCA schemas).
+DOUBLE_NAMES = frozenset(s.name for s in NODE_SCHEMA + SCHEMA if isinstance(s.default, float))
+DOUBLE_ARRAY_NAMES = frozenset(s.name for s in NODE_SCHEMA + SCHEMA
+                               if isinstance(s.default, list))
 
 
-def integral_doubles_as_integers(parameters):
-    """Return the parameters with integral doubles of INTEGER parameters made integers.
+def numbers_as_declared_types(parameters):
+    """Return the parameters with numbers in their parameter's declared type.
 
-    A pre-set callback: ``ros2 param set /tca physics_rate 2000.0`` (or 2000.0 in a
-    params file) stores the INTEGER 2000, so the parameter keeps its type. Any other
-    value passes unchanged, for the on-set callback to refuse in one line.
+    A pre-set callback, so that no ``ros2 param set`` or params file retypes a
+    parameter: an integral double of an INTEGER parameter becomes the integer
+    (``physics_rate 2000.0``: 2000), an integer of a DOUBLE parameter the double
+    (``max_load 8``: 8.0) and an integer array of a DOUBLE_ARRAY parameter a double
+    array. Any other value passes unchanged, for the on-set callback to refuse in one
+    line.
     """
     out = []
     for p in parameters:
         if p.name in INTEGER_NAMES and p.type_ == Parameter.Type.DOUBLE and \
                 math.isfinite(p.value) and float(p.value).is_integer():
             p = Parameter(p.name, Parameter.Type.INTEGER, int(p.value))
+        elif p.name in DOUBLE_NAMES and p.type_ == Parameter.Type.INTEGER:
+            p = Parameter(p.name, Parameter.Type.DOUBLE, float(p.value))
+        elif p.name in DOUBLE_ARRAY_NAMES and p.type_ == Parameter.Type.INTEGER_ARRAY:
+            p = Parameter(p.name, Parameter.Type.DOUBLE_ARRAY, [float(v) for v in p.value])
         out.append(p)
     return out
 
@@ -313,7 +324,7 @@ class GuardedParameterService(ParameterService):
 
 
 def _set_atomically(node, params):
-    for p in integral_doubles_as_integers(params):
+    for p in numbers_as_declared_types(params):
         if p.name in INTEGER_NAMES and p.type_ != Parameter.Type.INTEGER:
             try:  # the schema's one line, not rclpy's 'Wrong parameter type'
                 check_value(NODE_SPECS.get(p.name) or SPECS[p.name], p.value)

@@ -38,6 +38,14 @@ def test_executables_marker_and_manifest_are_installed(install):
     assert (install / 'share' / 'tca_ros' / 'config' / 'free_stroke.yaml').is_file()
 
 
+def test_launch_file_and_rviz_config_are_installed(install):
+    """`ros2 launch tca_ros two_muscles.launch.py` finds them in share/tca_ros."""
+    for shipped in ('launch/two_muscles.launch.py', 'rviz/tca.rviz'):
+        installed = install / 'share' / 'tca_ros' / shipped
+        assert installed.is_file(), shipped
+        assert installed.read_bytes() == (ROOT / shipped).read_bytes(), shipped
+
+
 def test_installed_tca_node_runs_as_ros2_run_would(install, tmp_path):
     """Resolve tca_ros in the ament index as `ros2 run` does, then run lib/tca_ros/tca_node."""
     env = os.environ.copy()

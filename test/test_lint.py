@@ -4,7 +4,7 @@ import subprocess
 import sys
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
-TARGETS = ['tca_ros', 'test', 'bench', 'setup.py']
+TARGETS = ['tca_ros', 'test', 'bench', 'launch', 'setup.py']
 # ament_pep257's default ignores (D100-D107: missing docstrings in magic/private places),
 # plus D208 (equations are displayed indented inside docstrings, as in the paper) and
 # D402 (false positives on physical words followed by brackets, e.g. 'mass (kg)').

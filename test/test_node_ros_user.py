@@ -16,7 +16,7 @@ from sensor_msgs.msg import JointState, Temperature
 from visualization_msgs.msg import Marker
 
 from tca_ros.model.params import check_value, ParameterError, SPECS
-from tca_ros.node_params import integral_doubles_as_integers, namespaced_name, NODE_SPECS
+from tca_ros.node_params import namespaced_name, NODE_SPECS, numbers_as_declared_types
 
 from test_node_harness import (module_command, NodeProcess, Probe, ROOT,  # noqa: I100
                                start_tca, STOP_GRACE)
@@ -62,7 +62,7 @@ def test_integer_parameters_refuse_fractions(name):
 
 def test_integral_doubles_become_integers_before_the_checks():
     from rclpy.parameter import Parameter
-    params = integral_doubles_as_integers([
+    params = numbers_as_declared_types([
         Parameter('physics_rate', value=2000.0), Parameter('shape_points', value=10.5),
         Parameter('fiber.length', value=1.0)])
     assert [p.type_ for p in params] == [Parameter.Type.INTEGER, Parameter.Type.DOUBLE,

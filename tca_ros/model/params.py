@@ -20,6 +20,7 @@ from dataclasses import dataclass, field, fields, replace
 import math
 import numbers
 import os
+import re
 
 import numpy as np
 import yaml
@@ -200,8 +201,9 @@ def check_value(spec, value):
             shown = items if items is not None else (
                 value.tolist() if isinstance(value, np.ndarray) else value)
             raise ParameterError(
-                f"parameter '{spec.name}' = {shown!r}: must be a list of {spec.length} "
-                f'finite numbers ({spec.unit})')
+                f"parameter '{spec.name}' = {shown!r}{_string_given(value, 'a list')}: "
+                f'must be a list of {spec.length} finite numbers ({spec.unit})'
+                f'{_yaml11_hint(value)}')
         return [float(v) for v in items]
     if isinstance(default, int):
         # An integral double (1000.0 in a params file) is taken as the integer it names.
@@ -210,14 +212,50 @@ def check_value(spec, value):
             return int(value)
         unit = '' if spec.unit == '-' else f' {spec.unit}'
         raise ParameterError(
-            f"parameter '{spec.name}' = {value!r}: must be an integer in "
-            f'[{int(spec.low)}, {int(spec.high)}]{unit}')
+            f"parameter '{spec.name}' = {value!r}{_string_given(value)}: must be an "
+            f'integer in [{int(spec.low)}, {int(spec.high)}]{unit}{_yaml11_hint(value)}')
     if not _is_real(value) or not math.isfinite(value) or not (
             spec.low <= value <= spec.high):
         raise ParameterError(
-            f"parameter '{spec.name}' = {value!r}: must be a finite number in "
-            f'[{spec.low:g}, {spec.high:g}] {spec.unit}')
+            f"parameter '{spec.name}' = {value!r}{_string_given(value)}: must be a "
+            f'finite number in [{spec.low:g}, {spec.high:g}] {spec.unit}{_yaml11_hint(value)}')
     return float(value)
+
+
+#: A number written with an exponent but without a decimal point or exponent sign.
+_EXPONENT_NUMBER = re.compile(r'[-+]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)[eE][-+]?[0-9]+')
+
+
+def _string_given(value, wanted='a number'):
+    """Return ' (a string, not <wanted>)' for a str value, else ''."""
+    return f' (a string, not {wanted})' if isinstance(value, str) else ''
+
+
+def _yaml11_hint(value):
+    """Return how to write a number YAML 1.1 read as a string (or '').
+
+    YAML 1.1 (PyYAML: ``ros2 param set``, ``ros2 param load`` and tca_sim's config
+    reader) takes a float only with a decimal point and a signed exponent: ``1e-9``
+    and ``1.0e9`` are strings, ``1.0e-9`` and ``1.0e+9`` numbers.
+    """
+    if not isinstance(value, str):
+        return ''
+    for token in _EXPONENT_NUMBER.findall(value):
+        if isinstance(yaml.safe_load(token), str):
+            mantissa, exponent = re.split('[eE]', token)
+            mantissa += '' if '.' in mantissa else '.0'
+            exponent = exponent if exponent[0] in '+-' else '+' + exponent
+            return (f' (YAML 1.1, as ros2 param set reads it, takes {token} for a string: '
+                    f'write {mantissa}e{exponent})')
+    try:
+        items = yaml.safe_load(value)
+    except yaml.YAMLError:
+        return ''
+    kinds = {type(v) for v in items} if isinstance(items, list) else set()
+    if kinds == {int, float}:  # ros2 param set sends a mixed list as one string
+        return (' (ros2 param set sends a list mixing integers and floats as a string: '
+                'write the integers as floats, 1 as 1.0)')
+    return ''
 
 
 def _is_real(value):
