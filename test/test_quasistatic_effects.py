@@ -180,8 +180,8 @@ def test_nonlinear_heat_balance_matches_an_adaptive_solver(values):
 
 
 def test_play_operator_follows_the_samples_and_inserts_the_onsets():
-    t = np.arange(7.0)
-    temp = np.array([25.0, 28.0, 40.0, 50.0, 45.0, 38.0, 30.0])
+    t = np.arange(9.0)
+    temp = np.array([25.0, 28.0, 40.0, 50.0, 45.0, 38.0, 30.0, 50.0, 20.0])
     grid, actuation, samples = qe.hysteretic_temperature(t, temp, 10.0)
     state, expected = temp[0], []
     for value in temp:
@@ -189,10 +189,13 @@ def test_play_operator_follows_the_samples_and_inserts_the_onsets():
         expected.append(state)
     np.testing.assert_array_equal(actuation[samples], expected)
     np.testing.assert_array_equal(grid[samples], t)
-    # held at 25 until T reaches 30 (1 + 2/12 s); held at 45 until T falls to 40 (4 + 5/7 s)
+    # held at 25 until T reaches 30 (1 + 2/12 s); at 45 until T falls to 40 (4 + 5/7 s);
+    # T turns within an interval and crosses the band: moving down at 6 s (35), held
+    # until T rises to 40 (6.5 s); moving up at 7 s (45), held until T falls to 40 (7 1/3 s)
     inserted = np.setdiff1d(np.arange(grid.size), samples)
-    np.testing.assert_allclose(grid[inserted], [1.0 + 2.0 / 12.0, 4.0 + 5.0 / 7.0])
-    np.testing.assert_array_equal(actuation[inserted], [25.0, 45.0])
+    np.testing.assert_allclose(grid[inserted], [1.0 + 2.0 / 12.0, 4.0 + 5.0 / 7.0, 6.5,
+                                                7.0 + 1.0 / 3.0])
+    np.testing.assert_array_equal(actuation[inserted], [25.0, 45.0, 35.0, 45.0])
     # zero width: the input itself, nothing inserted
     same = qe.hysteretic_temperature(t, temp, 0.0)
     assert np.array_equal(same[0], t) and np.array_equal(same[1], temp)

@@ -15,14 +15,15 @@ f_rod evaluation per physics step, which is what makes the joint calibration of
 many records fast. ``simulate_quasistatic`` returns the same SimulationResult as
 ``dynamics.simulate``; the test suite measures the difference between the two.
 
-Every effect of the catalogue (effects.py) is represented: the linear thermal
-ones (power loss, ambient offset), the sensor lag, dead time of the drive, a second
-thermal lag, Coulomb friction on the free end (a play operator on the elongation
-between the static maps at F -+ F_c, each edge behind the mechanical lag), and,
-in quasistatic_effects.py, radiation and nonlinear convection (eq. (1) stepped by
-RK4 on the record's grid; the linear eq. (1) keeps the exact filter), hysteresis
-(the play operator on the actuation temperature before the static maps) and creep
-(a Kelvin-Voigt filter of the tension added to the elongation).
+Every effect of the catalogue (effects.py) is represented: modulus softening and
+coil contact in the static maps; the linear thermal ones (power loss, ambient
+offset), the sensor lag, dead time of the drive, a second thermal lag, Coulomb
+friction on the free end (a play operator on the elongation between the static
+maps at F -+ F_c, each edge behind the mechanical lag); and, in
+quasistatic_effects.py, radiation and nonlinear convection (eq. (1) stepped by RK4
+on the record's grid; the linear eq. (1) keeps the exact filter), hysteresis (the
+play operator on the actuation temperature before the static maps) and creep (a
+Kelvin-Voigt filter of the tension added to the elongation).
 ``QuasiStaticUnsupported`` remains for a coil that is not a helix (rod model) and
 a voltage supply under a load of too many distinct values.
 """
@@ -53,7 +54,7 @@ VOLTAGE_POWER_MARGIN = 2.0  # bound on P R0 / R over P (RK4 substeps of a voltag
 
 
 class QuasiStaticUnsupported(ValueError):
-    """The parameters switch on an effect the quasi-static reduction cannot represent."""
+    """The reduction cannot represent this TCA or input: use dynamics.simulate."""
 
 
 def thermal_response(time, power, params):

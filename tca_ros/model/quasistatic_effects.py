@@ -20,7 +20,9 @@ at the hottest temperature the heating can reach. The play operator is rate
 independent, so applying it at the samples equals the 1 kHz stepper whenever T_f
 is monotonic between samples. The creep element sees the tension f_rod = F of the
 free end (with friction, the rod tension of the friction band); it is an exact
-first-order filter of the tension held over each interval.
+first-order filter of the tension held over each interval. In coil contact the
+stepper's f_rod(stop, T) exceeds F and the reduction keeps F (the free-stroke TCA
+reaches contact only near 250 degC).
 
 References
 ----------
@@ -214,22 +216,30 @@ def hysteretic_temperature(time, temperature, width):
     if width <= 0.0 or temperature.size == 0:
         return time, temperature, slice(None)
     half = 0.5 * width
-    play = fx.play_operator
     values, times = temperature.tolist(), time.tolist()
     instants, actuation, samples = [times[0]], [values[0]], [0]
     state = previous = values[0]
-    for k, now in enumerate(values[1:], start=1):
-        moved = play(now, state, width)
-        if moved != state:  # moving at t_k: since when (0 if it moved at t_k-1 already)?
-            edge = state + math.copysign(half, moved - state)
+    moving = 0  # -1, 0, +1: the output's motion at the previous sample
+    for k in range(1, len(values)):
+        now = values[k]
+        # effects.play_operator, min(max(state, T - w/2), T + w/2), written out: the
+        # loop runs once per sample of every fit evaluation
+        if state < now - half:
+            state, direction = now - half, 1
+        elif state > now + half:
+            state, direction = now + half, -1
+        else:
+            direction = 0
+        if direction and direction != moving:  # starts to move within this interval
+            edge = actuation[-1] + direction * half  # where T leaves the band held at t_k-1
             fraction = (edge - previous) / (now - previous)
             if ONSET_RESOLUTION < fraction < 1.0 - ONSET_RESOLUTION:
                 instants.append(times[k - 1] + fraction * (times[k] - times[k - 1]))
-                actuation.append(state)
+                actuation.append(actuation[-1])
         samples.append(len(instants))
         instants.append(times[k])
-        actuation.append(moved)
-        state, previous = moved, now
+        actuation.append(state)
+        previous, moving = now, direction
     if len(instants) == time.size:
         return time, np.array(actuation), slice(None)
     return np.array(instants), np.array(actuation), np.array(samples)
