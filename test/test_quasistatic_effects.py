@@ -211,3 +211,17 @@ def test_creep_is_the_kelvin_voigt_step_response(uniform):
     creep = qe.creep_elongation(t, np.full_like(t, 0.2), p.effects)
     # tau_c dy/dt = C F - y from 0 under a constant F: C F (1 - exp(-t / tau_c))
     np.testing.assert_allclose(creep, 0.01 * 0.2 * (1.0 - np.exp(-t / 20.0)), atol=1e-15)
+
+
+def test_a_fiber_in_vacuum_settles_where_radiation_carries_the_power():
+    # h = 0 with emissivity > 0 is valid (params._check_thermal): no convective term
+    p = _params(**{'thermal.convection_coefficient': 0.0, 'effects.emissivity': 0.9})
+    t = np.arange(0.0, 300.0, 1.0)  # 20 radiative time constants (~13 s at 130 degC)
+    heated = np.full_like(t, 0.3)  # W
+    voltage = simulate_quasistatic(p, t, heated, model='cst', supply='voltage')
+    assert np.all(np.isfinite(voltage.temperature)) and voltage.temperature[-1] > 100.0
+    # 0.3 W radiated: eps sigma A_0 ((T + 273.15)^4 - (T_inf + 273.15)^4) = 0.3 W
+    balance = qe.HeatBalance.of(p)
+    kelvin = (0.3 / balance.radiation + (25.0 + 273.15) ** 4) ** 0.25
+    power = simulate_quasistatic(p, t, heated, model='cst')
+    assert power.temperature[-1] == pytest.approx(kelvin - 273.15, abs=1e-6)

@@ -472,7 +472,8 @@ class QuasiStaticPlant:
         if effects.friction_force > 0.0:
             position = np.empty(n)
         tables = {}
-        top = self.ambient + 2.0 * float(np.max(nominal, initial=0.0)) / conductance + 20.0
+        top = qe.equilibrium_bound(VOLTAGE_POWER_MARGIN * float(np.max(nominal, initial=0.0)),
+                                   balance) + 20.0  # degC, also without convection
 
         def table(load, t_fiber):
             entry = tables.get(load)
