@@ -51,11 +51,13 @@ def test_delayed_input_preserves_heat_and_shifts():
     assert np.sum(d[:-3]) * 0.2 == pytest.approx((10.0 - 2.5 - 0.6) * 1.0, abs=1e-9)
 
 
-def test_history_dependent_effects_are_refused():
-    p = load_params('free_stroke').with_values(**{'effects.hysteresis_width': 5.0})
+def test_a_coil_that_is_not_a_helix_is_refused():
+    # the history-dependent effects are supported (test_quasistatic_effects.py); the rod
+    # model's exact-helix statics still need a helix
+    p = load_params('conical')
     t, power = _step_profile(5.0)
-    with pytest.raises(QuasiStaticUnsupported, match='hysteresis'):
-        simulate_quasistatic(p, t, power)
+    with pytest.raises(QuasiStaticUnsupported, match='helix'):
+        simulate_quasistatic(p, t, power, model='rod')
 
 
 def test_voltage_supply_follows_the_resistance_like_the_full_dynamics():

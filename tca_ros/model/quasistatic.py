@@ -15,13 +15,17 @@ f_rod evaluation per physics step, which is what makes the joint calibration of
 many records fast. ``simulate_quasistatic`` returns the same SimulationResult as
 ``dynamics.simulate``; the test suite measures the difference between the two.
 
-Supported extensions: the linear thermal ones (power loss, ambient offset), the
-sensor lag, dead time of the drive, a second thermal lag and Coulomb friction on
-the free end (a play operator on the elongation between the static maps at
-F -+ F_c, each edge behind the mechanical lag). Effects that make
-the response history-dependent (creep, hysteresis) or eq. (1) nonlinear
-(radiation, nonlinear convection) raise ``QuasiStaticUnsupported``: use
-``dynamics.simulate`` for those.
+Every effect of the catalogue (effects.py) is represented: modulus softening and
+coil contact in the static maps; the linear thermal ones (power loss, ambient
+offset), the sensor lag, dead time of the drive, a second thermal lag, Coulomb
+friction on the free end (a play operator on the elongation between the static
+maps at F -+ F_c, each edge behind the mechanical lag); and, in
+quasistatic_effects.py, radiation and nonlinear convection (eq. (1) stepped by RK4
+on the record's grid; the linear eq. (1) keeps the exact filter), hysteresis (the
+play operator on the actuation temperature before the static maps) and creep (a
+Kelvin-Voigt filter of the tension added to the elongation).
+``QuasiStaticUnsupported`` remains for a coil that is not a helix (rod model) and
+a voltage supply under a load of too many distinct values.
 """
 import collections
 import math
@@ -31,6 +35,7 @@ from scipy.interpolate import CubicSpline
 from scipy.signal import lfilter
 
 from tca_ros.model import effects as fx
+from tca_ros.model import quasistatic_effects as qe
 from tca_ros.model.dynamics import SimulationResult
 from tca_ros.model.kinetostatics import contact_elongation, make_kinetostatic_model
 from tca_ros.model.resistance import resistance
@@ -45,23 +50,11 @@ STIFFNESS_LOAD_STEP = 1e-4  # relative load step for k = dF / dy of the static m
 MAX_DISTINCT_LOADS = 16  # static maps solved per simulation; beyond, interpolated in load
 LOAD_LEVELS = 9  # maps spanning a load that takes more values (ramps)
 MAP_CACHE_SIZE = 64  # static maps kept between plants (a fit changes thermal values most)
+VOLTAGE_POWER_MARGIN = 2.0  # bound on P R0 / R over P (RK4 substeps of a voltage supply)
 
 
 class QuasiStaticUnsupported(ValueError):
-    """The parameters switch on an effect the quasi-static reduction cannot represent."""
-
-
-def check_supported(params):
-    """Raise QuasiStaticUnsupported when ``params`` need the full dynamics."""
-    e = params.effects
-    active = [name for name, on in (
-        ('creep', e.creep_compliance > 0.0), ('hysteresis', e.hysteresis_width > 0.0),
-        ('radiation', e.emissivity > 0.0),
-        ('nonlinear_convection', e.convection_exponent > 0.0)) if on]
-    if active:
-        raise QuasiStaticUnsupported(
-            f'effect {active[0]!r} is on: the quasi-static reduction supports only linear '
-            'thermal effects and the sensor lag; use dynamics.simulate')
+    """The reduction cannot represent this TCA or input: use dynamics.simulate."""
 
 
 def thermal_response(time, power, params):
@@ -71,11 +64,15 @@ def thermal_response(time, power, params):
     T_inf + P_in / (h c_s A_0) with the time constant m_t c_p / (h c_s A_0). P_in
     is the logged power times ``thermal.delivered_power_ratio`` and (1 - power
     loss), delayed by ``effects.dead_time`` when set; the start is at ambient.
+    With radiation or nonlinear convection, eq. (1') of quasistatic_effects (RK4).
     """
     time = np.asarray(time, dtype=float)
     heating = fx.heating_power(np.asarray(power, dtype=float), params.effects,
                                params.thermal.delivered_power_ratio)
     heating = delayed_input(time, heating, params.effects.dead_time)
+    balance = qe.HeatBalance.of(params)
+    if not balance.linear:
+        return qe.nonlinear_thermal_response(time, heating, balance)
     conductance = thermal_conductance(params.fiber, params.thermal)
     tau = heat_capacity(params.fiber) / conductance
     ambient = fx.true_ambient(params.thermal, params.effects)
@@ -260,7 +257,6 @@ class QuasiStaticPlant:
     """
 
     def __init__(self, params, model=None, kinetostatics=None):
-        check_supported(params)
         self.params = params
         self.kinetostatics = kinetostatics or make_statics(params, model)
         self.ambient = fx.true_ambient(params.thermal, params.effects)
@@ -325,27 +321,35 @@ class QuasiStaticPlant:
             raise QuasiStaticUnsupported(
                 f'load takes {distinct.size} distinct values; the quasi-static reduction '
                 f'solves at most {MAX_DISTINCT_LOADS}: use dynamics.simulate')
+        e = params.effects
         if supply == 'voltage':
-            temperature, actuating, y_eq, stiffness = self._voltage_drive(
-                time, power, acting)
+            temperature, fiber = self._voltage_drive(time, power, acting,
+                                                     qe.creep_elongation(time, load, e))
         elif supply == 'power':
             temperature = thermal_response(time, power, params)
-            actuating = actuating_temperature(time, temperature, params)
-            y_eq, stiffness = self._equilibria(actuating, acting, distinct)
+            fiber = actuating_temperature(time, temperature, params)
         else:
             raise ValueError(f"supply = {supply!r}: must be 'power' or 'voltage'")
+        # the mechanical chain runs on ``grid``: the samples, plus the instants at which
+        # a hysteretic actuation temperature starts to move (quasistatic_effects)
+        grid, actuating, samples = qe.hysteretic_temperature(time, fiber, e.hysteresis_width)
+        held = load
+        if grid is not time:  # the load held over each interval of the grid
+            held = load[np.searchsorted(time, grid, side='right') - 1]
+            acting = np.concatenate(([load[0]], held[:-1]))
+        y_eq, stiffness = self._equilibria(actuating, acting, distinct)
         y_ref = self._reference(float(load[0]))
-        elongation = _mechanical_lag(time, y_eq, stiffness, params.dynamics.damping)
+        creep = qe.creep_elongation(grid, held, e)  # the free end's tension is the load
+        # the coil and the creep element in series: q = y_coil + y_c, behind the lag
+        elongation = _mechanical_lag(grid, y_eq + creep, stiffness, params.dynamics.damping)
         tension = acting
-        if params.effects.friction_force > 0.0:
-            edges = [_mechanical_lag(time, *self._equilibria(actuating, acting + offset,
-                                                             distinct + offset),
-                                     params.dynamics.damping)
-                     for offset in self._friction_offsets()]
-            elongation, tension = _friction_response(elongation[0], acting, edges,
-                                                     self._friction_offsets()[0])
+        if e.friction_force > 0.0:
+            elongation, tension, creep = self._friction(grid, actuating, acting, distinct,
+                                                        creep, elongation[0])
+        elongation, tension, creep = elongation[samples], tension[samples], creep[samples]
         contraction = y_ref - elongation
-        tension = np.where(elongation <= self.stop, np.maximum(tension, 0.0), tension)
+        tension = np.where(elongation - creep <= self.stop, np.maximum(tension, 0.0),
+                           tension)
         measured = contraction
         if params.effects.sensor_lag > 0.0:  # the sensor starts settled
             measured = contraction[0] + first_order_response(
@@ -381,6 +385,29 @@ class QuasiStaticPlant:
         static = e.friction_force * e.static_friction_ratio
         return (-static, static, -e.friction_force, e.friction_force)
 
+    def _friction(self, time, actuating, acting, distinct, creep, start):
+        """Return (q (m), f_rod (N), y_c (m)) of the end under Coulomb friction.
+
+        q starts at ``start`` (m). The band edges (the lagged maps at F -+ F_s and
+        F -+ F_k, actuation temperature ``actuating`` in degC) move with the creep
+        elongation ``creep`` (m). The rod tension of the band, not the load, drives
+        the creep: with creep on, it is filtered again from that tension and the
+        play run again.
+        """
+        damping = self.params.dynamics.damping
+        offsets = self._friction_offsets()
+        edges = [_mechanical_lag(time, *self._equilibria(actuating, acting + offset,
+                                                         distinct + offset), damping)
+                 for offset in offsets]
+        elongation, tension = _friction_response(start, acting, [edge + creep for edge in edges],
+                                                 offsets[0])
+        if self.params.effects.creep_compliance > 0.0:
+            held = np.append(0.5 * (tension[:-1] + tension[1:]), tension[-1])  # per interval
+            creep = qe.creep_elongation(time, held, self.params.effects)
+            elongation, tension = _friction_response(
+                start, acting, [edge + creep for edge in edges], offsets[0])
+        return elongation, tension, creep
+
     def _equilibria(self, actuating, acting, distinct):
         """Return (y_eq (m), k (N/m)) per sample: exact maps per load, or interpolated.
 
@@ -408,11 +435,16 @@ class QuasiStaticPlant:
                                  ks[i, cols] + w * (ks[i + 1, cols] - ks[i, cols]), math.inf)
         return y_eq, stiffness
 
-    def _voltage_drive(self, time, power, acting):
-        """Step eq. (1) sample by sample with P = P_nominal R0 / R(T, x) (exact per step).
+    def _voltage_drive(self, time, power, acting, creep):
+        """Return (T, T_f) (degC) of eq. (1) stepped with P = P_nominal R0 / R(T, x).
 
-        The static maps are sampled once on a fine temperature grid
-        (VOLTAGE_TABLE_STEP) and read by linear interpolation in the loop.
+        Sample by sample: exact per step while eq. (1) is linear, RK4
+        (quasistatic_effects) with radiation or nonlinear convection. The static
+        maps are sampled once on a fine temperature grid (VOLTAGE_TABLE_STEP) and
+        read by linear interpolation in the loop, at the actuation temperature
+        (play operator with hysteresis); R(T, x) sees the end with the creep
+        elongation ``creep`` (m) added. T_f is the fiber temperature behind the
+        second thermal lag.
         """
         p = self.params
         e, effects = p.electrical, p.effects
@@ -428,13 +460,20 @@ class QuasiStaticPlant:
         n = time.size
         temp = np.full(n, self.ambient)
         fiber = np.full(n, self.ambient)
+        width = effects.hysteresis_width
+        actuation = fiber if width <= 0.0 else np.full(n, self.ambient)  # degC, play output
+        balance = qe.HeatBalance.of(p)
+        intervals = np.diff(time)
+        substeps = None if balance.linear else qe.rk4_substeps(
+            intervals, VOLTAGE_POWER_MARGIN * nominal[:-1], balance)
         y_eq = np.empty(n)
         stiffness = np.empty(n)
         position = y_eq  # m, the end as R(T, x) sees it: with friction, the play output
         if effects.friction_force > 0.0:
             position = np.empty(n)
         tables = {}
-        top = self.ambient + 2.0 * float(np.max(nominal, initial=0.0)) / conductance + 20.0
+        top = qe.equilibrium_bound(VOLTAGE_POWER_MARGIN * float(np.max(nominal, initial=0.0)),
+                                   balance) + 20.0  # degC, also without convection
 
         def table(load, t_fiber):
             entry = tables.get(load)
@@ -455,18 +494,26 @@ class QuasiStaticPlant:
             return y[i] + w * (y[i + 1] - y[i]), k[i] + w * (k[i + 1] - k[i])
 
         def advance(k, inverse_r):
-            target = self.ambient + nominal[k] * e.resistance * inverse_r / conductance
-            temp[k + 1] = target + (temp[k] - target) * decay[k]
+            heating = nominal[k] * e.resistance * inverse_r
+            if substeps is None:
+                target = self.ambient + heating / conductance
+                temp[k + 1] = target + (temp[k] - target) * decay[k]
+            else:
+                m = int(substeps[k])
+                temp[k + 1] = qe.rk4_thermal_march(float(temp[k]), (float(heating),) * m,
+                                                   (intervals[k] / m,) * m, balance)[-1]
             fiber[k + 1] = (temp[k + 1] if lag_decay is None else
                             temp[k + 1] + (fiber[k] - temp[k + 1]) * lag_decay[k])
-            y_eq[k + 1], stiffness[k + 1] = lookup(float(acting[k + 1]), fiber[k + 1])
+            if actuation is not fiber:
+                actuation[k + 1] = fx.play_operator(fiber[k + 1], actuation[k], width)
+            y_eq[k + 1], stiffness[k + 1] = lookup(float(acting[k + 1]), actuation[k + 1])
             if position is not y_eq:  # friction: the end stays in its band (no lag here)
-                band = [lookup(float(acting[k + 1]) + offset, fiber[k + 1])[0]
+                band = [lookup(float(acting[k + 1]) + offset, actuation[k + 1])[0]
                         for offset in self._friction_offsets()]
                 position[k + 1] = fx.friction_play(position[k], band[:2], band[2:])
 
         def inverse_resistance(i):
-            r = resistance(temp[i], y_ref - position[i], length, e, t0)
+            r = resistance(temp[i], y_ref - position[i] - creep[i], length, e, t0)
             if not r > 0.0:
                 raise ArithmeticError(f'voltage supply: resistance {r:g} ohm is not positive')
             return 1.0 / r
@@ -478,7 +525,7 @@ class QuasiStaticPlant:
             first = inverse_resistance(k)
             advance(k, first)
             advance(k, 0.5 * (first + inverse_resistance(k + 1)))
-        return temp, fiber, y_eq, stiffness
+        return temp, fiber
 
 
 def simulate_quasistatic(params, time, power, load=None, model=None, kinetostatics=None,
