@@ -237,8 +237,8 @@ class FitProblem:
         # a coil stop that binds is a mass hitting a stop: the reduction's lag towards it
         # differs from (18) by more than the defect correction at a contact-free base holds
         stop = values.get('coil.min_pitch_angle_deg')
-        kind = 'full' if stop is not None and stop != self.params.coil.min_pitch_angle_deg \
-            else None
+        nominal_stop = math.degrees(self.params.coil.min_pitch_angle)
+        kind = 'full' if stop is not None and abs(stop - nominal_stop) > 1e-9 else None
         try:
             kind, sim = self._coarse_simulation(self.parameters(values), end, kind)
             correction = self._correction(kind)
