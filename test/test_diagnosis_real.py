@@ -100,7 +100,7 @@ def test_several_records_of_one_muscle_are_diagnosed_together(tmp_path, capsys):
     dump_params(s.start, str(start))
     paths = []
     for i, r in enumerate(s.records):
-        r.meta['tca'] = str(start)
+        r.meta['tca'] = 'start.yaml'  # a params file next to the record
         paths.append(str(tmp_path / f'step_{i}.csv'))
         write_csv_record(r, paths[-1])
     code = main(['diagnose', *paths, '--quiet', '--report', str(tmp_path / 'rep')])
