@@ -224,6 +224,16 @@ def make_statics(params, model=None):
 _MAP_CACHE = collections.OrderedDict()  # (mechanical params, model, load) -> map
 
 
+def clear_map_cache():
+    """Forget every cached static map.
+
+    A map grows when a record needs temperatures beyond it, so what a simulation
+    reads depends on the maps earlier calls left; a caller that must give the
+    same numbers for the same inputs (a diagnosis, a calibration) starts empty.
+    """
+    _MAP_CACHE.clear()
+
+
 def _cached_map(key):
     entry = _MAP_CACHE.get(key)
     if entry is not None:
