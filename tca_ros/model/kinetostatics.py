@@ -12,9 +12,9 @@ Conventions (docs/decisions.md)
 - The untwist of eq. (4) is negative when hot; the coil then contracts.
 - Love's equation keeps the coil count fixed (eq. (24), end cannot rotate); CST and
   the rod model let the end rotate (M_e = 0). CST coefficients are evaluated at the
-  current pitch angle sin(alpha) = l / l_t with the coil radius held at r*
-  (Sec. IV-B allows updating r and alpha; with the end free to rotate, the coil
-  count rather than the radius absorbs the change).
+  current pitch angle sin(alpha) = l / l_t and the coil radius of eq. (24),
+  r = r* cos(alpha) / cos(alpha*) (Sec. IV-B allows updating r and alpha; eq. (24) is
+  the paper's relation between them and the authors' CST code uses it; D9).
 - Moduli follow eq. (11) with F the current tension (a fixed point, solved by
   iteration).
 """
@@ -38,6 +38,14 @@ def natural_length(fiber, coil):
 def pitch_angle_of_length(length, fiber):
     """Return the pitch angle alpha (rad) of a helix of axial length (m), Eq. (26)."""
     return math.asin(min(max(length / fiber.length, -1.0), 1.0))
+
+
+def fixed_count_radius(alpha, coil):
+    """Return the coil radius r (m) at pitch angle alpha (rad) for a fixed coil count, Eq. (24).
+
+        cos(alpha) / r = cos(alpha*) / r*
+    """
+    return coil.radius * math.cos(alpha) / math.cos(coil.pitch_angle)
 
 
 def love_heated_pitch_sine(untwist, coil):
@@ -65,7 +73,7 @@ def love_compliance(alpha, alpha_h, section, fiber, coil):
 
         K_lv = (GJ cos^2 a + EI sin^2 a) / (l_t r^2), r = r* cos a / cos a*
     """
-    r = coil.radius * math.cos(alpha) / math.cos(coil.pitch_angle)
+    r = fixed_count_radius(alpha, coil)
     return fiber.length * r * r / (section.GJ * math.cos(alpha) ** 2
                                    + section.EI * math.sin(alpha) ** 2)
 
@@ -216,8 +224,9 @@ class CstModel(KinetostaticModel):
         p = self.params
         alpha = pitch_angle_of_length(self.natural_length + elongation, p.fiber)
         section = self.section(temperature, force)
-        compliance = cst_compliance(p.coil.radius, alpha, section, p.fiber)
-        a_cst = cst_kinematic_coefficient(p.coil.radius, alpha, p.fiber)
+        radius = fixed_count_radius(alpha, p.coil)
+        compliance = cst_compliance(radius, alpha, section, p.fiber)
+        a_cst = cst_kinematic_coefficient(radius, alpha, p.fiber)
         return (elongation - a_cst * self.untwist(temperature)) / compliance
 
 
