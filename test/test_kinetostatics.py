@@ -108,7 +108,12 @@ def test_contact_elongation(free_stroke):
     assert y == pytest.approx(0.175 * (math.sin(math.radians(12.0))
                                        - math.sin(math.radians(22.42))))
     off = free_stroke.with_values(**{'coil.contact': False})
-    assert ks.contact_elongation(off) == -math.inf
+    # without the measured stop the turns still cannot pass each other (D8): they touch
+    # at sin(alpha_s) = r_t / (pi r*)
+    assert ks.contact_elongation(off) == pytest.approx(0.175 * (0.21 / (math.pi * 0.408)
+                                                                - math.sin(math.radians(22.42))))
+    conical = free_stroke.with_values(**{'coil.shape': 'conical', 'coil.contact': False})
+    assert ks.contact_elongation(conical) == -math.inf  # a cone's coils pass each other
 
 
 def test_unknown_model_is_rejected(free_stroke):

@@ -37,6 +37,7 @@ import numpy as np
 from tca_ros.model import effects as fx
 from tca_ros.model.kinetostatics import contact_elongation, static_elongation
 from tca_ros.model.kinetostatics import make_kinetostatic_model
+from tca_ros.model.limits import check_thread_strength
 from tca_ros.model.resistance import resistance
 from tca_ros.model.thermal import heat_capacity, surface_area, thermal_conductance
 
@@ -342,6 +343,7 @@ class TcaSimulator:
         s.time += h
         s.power, s.load = power, load
         s.tension = model.tension(s.elongation - s.creep, s.actuation_temperature, s.tension)
+        check_thread_strength(s.tension, p.fiber, s.time)  # the thread breaks: end the run
         self._update_outputs(s, h)
 
     def _rescale_previous(self, q, load, h):

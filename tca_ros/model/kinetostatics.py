@@ -23,6 +23,7 @@ import math
 import numpy as np
 
 from tca_ros.model.fiber import unit_untwist
+from tca_ros.model.limits import check_thread_strength, touching_pitch_angle
 from tca_ros.model.moduli import section_stiffness
 
 _MODULI_TOLERANCE = 1e-9  # N, fixed point of F in eq. (11)
@@ -153,8 +154,10 @@ class KinetostaticModel:
         """Return y (m) with f_rod(y, T) = load (N); coil contact not applied.
 
         Newton's method from ``guess`` (m), safeguarded by bisection within the
-        geometric range of eq. (26).
+        geometric range of eq. (26). A load above ``fiber.break_force`` raises
+        ThreadBreakError: the thread breaks before it gets there.
         """
+        check_thread_strength(load, self.params.fiber)
         lo = -self.natural_length + 1e-9 * self.params.fiber.length
         hi = self.params.fiber.length * 0.999 - self.natural_length
         y = 0.0 if guess is None else min(max(guess, lo), hi)
@@ -180,8 +183,9 @@ class KinetostaticModel:
         At equilibrium the tension equals the load, so eq. (11) is evaluated at
         the load itself and no fixed point on F is needed: a secant solve on y
         alone (what the quasi-static reduction calls on every temperature).
-        Coil contact not applied.
+        Coil contact not applied; ThreadBreakError above ``fiber.break_force``.
         """
+        check_thread_strength(load, self.params.fiber)
         y0 = 0.0 if guess is None else guess
         g0 = self._tension_at(y0, temperature, load) - load
         y1 = y0 + 1e-6 * self.params.fiber.length
@@ -204,6 +208,11 @@ class LoveModel(KinetostaticModel):
         p = self.params
         sin_h = love_heated_pitch_sine(self.untwist(temperature), p.coil)
         sin_a = (self.natural_length + elongation) / p.fiber.length
+        if not -1.0 < sin_a < 1.0:  # eq. (25) divides by cos(alpha)
+            raise ArithmeticError(
+                f'love: coil length {self.natural_length + elongation:.4g} m at {temperature:g} '
+                f'degC reaches the fiber length l_t = {p.fiber.length:g} m (a straight fiber): '
+                "Love's inextensible helix has no state there; use cst or rod")
         return love_tension(sin_a, sin_h, self.section(temperature, force), p.coil)
 
     def free_elongation(self, temperature):
@@ -234,20 +243,23 @@ def contact_elongation(params):
     """Return the elongation (m) at which neighbouring coils touch (Sec. V-D1).
 
     The axial length cannot fall below l_t sin(alpha_min) (a hard stop, the
-    reading adopted in docs/decisions.md, D8). Returns -inf when contact is off or
-    the shape is conical (its coils pass each other).
+    reading adopted in docs/decisions.md, D8). With ``coil.contact`` off the measured
+    stop is not applied, but the coils still cannot pass through each other: the
+    stop is then where the turns touch, l_t sin(alpha_s) (limits.touching_pitch_angle).
+    Returns -inf for a conical shape (its coils pass each other).
     """
     c = params.coil
-    if not c.contact or c.shape != 'helix':
+    if c.shape != 'helix':
         return -math.inf
-    return params.fiber.length * math.sin(c.min_pitch_angle) - natural_length(
-        params.fiber, c)
+    angle = c.min_pitch_angle if c.contact else touching_pitch_angle(params.fiber, c)
+    return params.fiber.length * math.sin(angle) - natural_length(params.fiber, c)
 
 
 def static_elongation(model, load, temperature):
     """Return the static elongation y (m) under load (N) at temperature (degC).
 
     ``model`` is a KinetostaticModel; coil contact (Sec. V-D1) bounds y from below.
+    Raises ThreadBreakError when the load exceeds the thread's strength.
     """
     y = model.equilibrium_elongation(load, temperature)
     return max(y, contact_elongation(model.params))

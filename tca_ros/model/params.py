@@ -24,6 +24,8 @@ import os
 import numpy as np
 import yaml
 
+from tca_ros.model.limits import parameter_limit_violation
+
 GRAVITY = 9.81  # m/s^2, g_r of Sec. III-C [1]
 
 #: Node name the params files are keyed by (any namespace, ``/**/tca``).
@@ -78,12 +80,17 @@ SCHEMA = (
        "calibrated for a user's muscle).", 0.01, 20.0),
     _p('fiber.heated_radius_in_section', True, '-',
        'Use the heated radius r_t Gamma(T)/Gamma(T0) in A, I and J (as the authors do).'),
+    _p('fiber.break_force', 2.354, 'N',
+       'Thread strength: a tension above it breaks the thread (Sec. V-A: heavier than '
+       '240 g, i.e. 2.354 N, may break the thread).', 1e-4, 1e4),
     # Coil reference state (Table III)
     _p('coil.shape', 'helix', '-', 'Reference centreline: helix (12) or conical spiral (36).',
        choices=SHAPES),
     _p('coil.radius', 0.408e-3, 'm', 'Coil radius r* of the helix.', 1e-5, 0.1),
+    # Steeper coils are nearly straight fibers, not TCAs: the rod model's y(F) is flat
+    # to round-off at 89 deg, and at 80 deg the helix inverts on heating by 60 degC.
     _p('coil.pitch_angle_deg', 22.42, 'deg', 'Coil pitch angle alpha* of the helix.',
-       0.5, 89.0),
+       0.5, 60.0),
     _p('coil.spiral_pitch', 10.6e-3, 'm', 'Conical spiral pitch p_c (a = 2 pi / p_c).',
        1e-4, 1.0),
     _p('coil.cone_angle_deg', 12.0, 'deg', 'Conical spiral cone angle (b = tan(angle/2)).',
@@ -227,6 +234,7 @@ class FiberParams:
     gamma_coefficients: tuple
     untwist_gain: float
     heated_radius_in_section: bool
+    break_force: float
 
 
 @dataclass(frozen=True)
@@ -378,7 +386,9 @@ def _check_consistency(p):
     """Cross-parameter rules that a single range cannot express.
 
     Each rule keeps the model finite: the fiber loses heat (eq. (1) has a finite time
-    constant), the coil is wider than its fiber, creep stays within the coil's stretch.
+    constant), the coil is wider than its fiber, creep stays within the coil's stretch;
+    and physical (limits.parameter_limit_violation): coils that do not overlap, a load
+    within the thread's strength, an untwist defined up to the melt.
     """
     _check_thermal(p)
     if p.coil.shape == 'helix' and p.coil.radius < p.fiber.radius:
@@ -402,6 +412,9 @@ def _check_consistency(p):
         raise ParameterError(
             f"parameter 'fiber.gamma_coefficients' = {list(p.fiber.gamma_coefficients)}: "
             f'Gamma(T0) must be positive')
+    violation = parameter_limit_violation(p)  # strength, melt range, overlapping coils
+    if violation:
+        raise ParameterError(violation)
 
 
 def _check_thermal(p):
