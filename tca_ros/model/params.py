@@ -25,6 +25,7 @@ import numpy as np
 import yaml
 
 from tca_ros.model.limits import parameter_limit_violation
+from tca_ros.model.reference_state import resolve_reference
 
 GRAVITY = 9.81  # m/s^2, g_r of Sec. III-C [1]
 
@@ -98,6 +99,16 @@ SCHEMA = (
     _p('coil.contact', True, '-', 'Stop contraction when neighbouring coils touch.'),
     _p('coil.min_pitch_angle_deg', 12.0, 'deg',
        'Pitch angle alpha_min at which coils touch (Sec. V-D1).', 0.0, 89.0),
+    _p('coil.crept_reference', False, '-',
+       'Reference crept under dynamics.load (Sec. V-D1): alpha*, r* follow the law of '
+       "reference_state.py; false: Table III's alpha*, r* for every load."),
+    _p('coil.unloaded_pitch_angle_deg', 15.0, 'deg',
+       "Crept reference: rest pitch angle a_0 crept without load (authors' code: 15 deg).",
+       0.5, 60.0),
+    _p('coil.crept_force_scale', 0.24, 'N',
+       'Crept reference: load scale F_c of sin a* = sin a_c - (sin a_c - sin a_0) '
+       "exp(-F/F_c) (0.24 N fits the authors' 15/16/20/22 deg at 0/2/30/60 g to 0.43 deg).",
+       1e-4, 100.0),
     # Thermal model, eq. (1)
     _p('thermal.convection_coefficient', 23.0, 'W/(m^2 K)', 'Natural convection h.',
        0.0, 1e4),
@@ -239,15 +250,25 @@ class FiberParams:
 
 @dataclass(frozen=True)
 class CoilParams:
-    """Coil reference state (Table III): radius (m), angles (rad)."""
+    """Coil reference state (Table III): radius (m), angles (rad), force scale (N).
+
+    ``radius`` and ``pitch_angle`` are the reference the models use: the as-coiled
+    ``coiled_radius`` and ``coiled_pitch_angle`` of the params file, or with
+    ``crept_reference`` those crept under dynamics.load (reference_state.py).
+    """
 
     shape: str
-    radius: float
-    pitch_angle: float
+    coiled_radius: float
+    coiled_pitch_angle: float
     spiral_pitch: float
     cone_angle: float
     contact: bool
     min_pitch_angle: float
+    crept_reference: bool
+    unloaded_pitch_angle: float
+    crept_force_scale: float
+    radius: float = math.nan  # set by reference_state.resolve_reference
+    pitch_angle: float = math.nan
 
 
 @dataclass(frozen=True)
@@ -335,7 +356,10 @@ class TcaParams:
         return from_flat_dict(flat, source=self.source)
 
 
-_DEG = {'bias_angle_deg', 'pitch_angle_deg', 'cone_angle_deg', 'min_pitch_angle_deg'}
+_DEG = {'bias_angle_deg', 'pitch_angle_deg', 'cone_angle_deg', 'min_pitch_angle_deg',
+        'unloaded_pitch_angle_deg'}
+#: Schema names whose dataclass field is not the name without its unit suffix.
+_FIELDS = {'coil.radius': 'coiled_radius', 'coil.pitch_angle_deg': 'coiled_pitch_angle'}
 _GROUPS = {'fiber': FiberParams, 'coil': CoilParams, 'thermal': ThermalParams,
            'moduli': ModuliParams, 'dynamics': DynamicsParams,
            'electrical': ElectricalParams, 'effects': EffectParams}
@@ -374,8 +398,9 @@ def from_flat_dict(values, source=''):
                 value = math.radians(value)
             if isinstance(value, list):
                 value = tuple(value)
-            kwargs[_field_name(key)] = value
+            kwargs[_FIELDS.get(name) or _field_name(key)] = value
         groups[group] = cls(**kwargs)
+    groups['coil'] = resolve_reference(groups['coil'], groups['dynamics'].load)
     params = TcaParams(tca_type=checked['tca_type'], model=checked['model'],
                        source=source, **groups)
     _check_consistency(params)
@@ -412,6 +437,12 @@ def _check_consistency(p):
         raise ParameterError(
             f"parameter 'fiber.gamma_coefficients' = {list(p.fiber.gamma_coefficients)}: "
             f'Gamma(T0) must be positive')
+    c = p.coil
+    if c.crept_reference and c.unloaded_pitch_angle > c.coiled_pitch_angle:
+        raise ParameterError(
+            f"parameter 'coil.unloaded_pitch_angle_deg' = {math.degrees(c.unloaded_pitch_angle):g}"
+            f': the crept reference needs it at most coil.pitch_angle_deg '
+            f'({math.degrees(c.coiled_pitch_angle):g}): a load stretches the crept coil')
     violation = parameter_limit_violation(p)  # strength, melt range, overlapping coils
     if violation:
         raise ParameterError(violation)
@@ -442,7 +473,7 @@ def to_flat_dict(params):
             head, _, key = spec.name.partition('.')
             if head != group:
                 continue
-            value = getattr(obj, _field_name(key))
+            value = getattr(obj, _FIELDS.get(spec.name) or _field_name(key))
             if key in _DEG:
                 value = math.degrees(value)
             if isinstance(value, tuple):
