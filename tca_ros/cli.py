@@ -178,6 +178,7 @@ def check_finite(columns, where, unit):
 def cmd_statics(args, out):
     """Print CSV temperature,displacement (degC, m) for a hanging mass."""
     from tca_ros.model.dynamics import static_displacement
+    from tca_ros.model.reference_state import crept_under
     if args.tstep <= 0.0 or args.tmax < args.tmin:
         raise InputError(f'--tstep = {args.tstep:g}, --tmin = {args.tmin:g}, --tmax = '
                          f'{args.tmax:g}: need tstep > 0 and tmax >= tmin (degC)')
@@ -205,7 +206,8 @@ def cmd_statics(args, out):
     if args.shape:
         raise InputError(f'--shape = {args.shape!r}: only for a conical TCA '
                          f'(coil.shape: conical), this config is a {p.coil.shape}')
-    disp = static_displacement(p, load, temps)
+    # coil.crept_reference: the reference is the one crept under this weight (Sec. V-D1)
+    disp = static_displacement(crept_under(p, load), load, temps)
     check_finite({'displacement': disp}, temps, 'degC')
     out.write('temperature,displacement\n')
     for temp, x in zip(temps, disp):

@@ -37,6 +37,7 @@ import numpy as np
 from tca_ros.model import effects as fx
 from tca_ros.model.kinetostatics import contact_elongation, static_elongation
 from tca_ros.model.kinetostatics import make_kinetostatic_model
+from tca_ros.model.limits import check_thread_strength
 from tca_ros.model.resistance import resistance
 from tca_ros.model.thermal import heat_capacity, surface_area, thermal_conductance
 
@@ -84,6 +85,32 @@ def central_difference_step(q, q_prev, force, mass, damping, dt):
     return (force + a * (2.0 * q - q_prev) + c * q_prev) / (a + c)
 
 
+def central_difference_acceleration(q, q_prev, force, mass, damping, h):
+    """Return q'' (m/s^2) at step i of m q'' + b q' = force (N), q' = v_{i-1/2} + q'' h/2.
+
+    ``q``, ``q_prev`` (m) are q_i and q_{i-1} at spacing ``h`` (s): their difference
+    is the velocity half a step back, and the acceleration carries it to step i.
+    """
+    half_velocity = (q - q_prev) / h
+    return (force - damping * half_velocity) / (mass + 0.5 * damping * h)
+
+
+def rescaled_previous(q, q_prev, h_old, h_new, acceleration=0.0):
+    """Return q_{i-1} (m) at spacing h_new (s) from q_i, q_{i-1} (m) at spacing h_old (s).
+
+    The central difference keeps its velocity in q_i - q_{i-1}; when the substep
+    changes, q_{i-1} moves to q(t_i - h_new), a Taylor expansion about t_i:
+
+        v_i = (q_i - q_{i-1}) / h_old + a_i h_old / 2
+        q(t_i - h_new) = q_i - h_new v_i + a_i h_new^2 / 2
+
+    so the next step sees the same motion (no kick). ``acceleration`` a_i (m/s^2):
+    zero keeps the half-step velocity (first order in h_new - h_old).
+    """
+    velocity = (q - q_prev) / h_old + 0.5 * acceleration * h_old
+    return q - h_new * velocity + 0.5 * acceleration * h_new * h_new
+
+
 def central_difference_limit(stiffness, mass):
     """Return the stability limit 2 / omega (s) of the central-difference step."""
     if mass <= 0.0 or stiffness <= 0.0:
@@ -119,6 +146,7 @@ class TcaSimulator:
                                 and params.effects.convection_exponent == 0.0)
         self._substeps = 1
         self._steps_since_check = 0
+        self._step_length = None  # s, length of the last substep (q_{i-1} is that far back)
         self.state = TcaState()
         self.reference_elongation = 0.0
         self.loaded_length = 1.0
@@ -144,6 +172,7 @@ class TcaSimulator:
         self._check_equilibrium(load, temp, q, self.state.tension)
         self._update_outputs(self.state, 0.0)
         self.state.measured_displacement = self.state.displacement
+        self._step_length = None  # at rest: q_{i-1} = q_i holds for any step
         self._substeps = self.check_step()
         return self.state
 
@@ -289,6 +318,9 @@ class TcaSimulator:
                                                  p.effects)
         s.actuation_temperature = fx.play_operator(
             s.fiber_temperature, s.actuation_temperature, p.effects.hysteresis_width)
+        if mass > 0.0 and self._step_length not in (None, h):
+            self._rescale_previous(q, load, h)
+        self._step_length = h
         if p.effects.friction_force > 0.0:
             q_next = self._friction_step(q, y_c, load, mass, damping, h)
         elif mass > 0.0:
@@ -311,7 +343,23 @@ class TcaSimulator:
         s.time += h
         s.power, s.load = power, load
         s.tension = model.tension(s.elongation - s.creep, s.actuation_temperature, s.tension)
+        check_thread_strength(s.tension, p.fiber, s.time)  # the thread breaks: end the run
         self._update_outputs(s, h)
+
+    def _rescale_previous(self, q, load, h):
+        """Move q_{i-1} to h (s) before q_i when the substep length changes.
+
+        The acceleration from eq. (18) at step i makes the rescaling second order;
+        with friction the holding force is not known here, so the half-step velocity
+        is kept instead (first order).
+        """
+        s, d = self.state, self.params.dynamics
+        old = self._step_length
+        accel = 0.0
+        if self.params.effects.friction_force == 0.0:
+            accel = central_difference_acceleration(q, s.previous_elongation, load - s.tension,
+                                                    d.mass, d.damping, old)
+        s.previous_elongation = rescaled_previous(q, s.previous_elongation, old, h, accel)
 
     def _friction_step(self, q, y_c, load, mass, damping, h):
         """Return q_{i+1} (m) of eq. (18) with Coulomb friction on the free end.

@@ -12,9 +12,9 @@ Conventions (docs/decisions.md)
 - The untwist of eq. (4) is negative when hot; the coil then contracts.
 - Love's equation keeps the coil count fixed (eq. (24), end cannot rotate); CST and
   the rod model let the end rotate (M_e = 0). CST coefficients are evaluated at the
-  current pitch angle sin(alpha) = l / l_t with the coil radius held at r*
-  (Sec. IV-B allows updating r and alpha; with the end free to rotate, the coil
-  count rather than the radius absorbs the change).
+  current pitch angle sin(alpha) = l / l_t and the coil radius of eq. (24),
+  r = r* cos(alpha) / cos(alpha*) (Sec. IV-B allows updating r and alpha; eq. (24) is
+  the paper's relation between them and the authors' CST code uses it; D9).
 - Moduli follow eq. (11) with F the current tension (a fixed point, solved by
   iteration).
 """
@@ -23,6 +23,7 @@ import math
 import numpy as np
 
 from tca_ros.model.fiber import unit_untwist
+from tca_ros.model.limits import check_thread_strength, touching_pitch_angle
 from tca_ros.model.moduli import section_stiffness
 
 _MODULI_TOLERANCE = 1e-9  # N, fixed point of F in eq. (11)
@@ -38,6 +39,14 @@ def natural_length(fiber, coil):
 def pitch_angle_of_length(length, fiber):
     """Return the pitch angle alpha (rad) of a helix of axial length (m), Eq. (26)."""
     return math.asin(min(max(length / fiber.length, -1.0), 1.0))
+
+
+def fixed_count_radius(alpha, coil):
+    """Return the coil radius r (m) at pitch angle alpha (rad) for a fixed coil count, Eq. (24).
+
+        cos(alpha) / r = cos(alpha*) / r*
+    """
+    return coil.radius * math.cos(alpha) / math.cos(coil.pitch_angle)
 
 
 def love_heated_pitch_sine(untwist, coil):
@@ -65,7 +74,7 @@ def love_compliance(alpha, alpha_h, section, fiber, coil):
 
         K_lv = (GJ cos^2 a + EI sin^2 a) / (l_t r^2), r = r* cos a / cos a*
     """
-    r = coil.radius * math.cos(alpha) / math.cos(coil.pitch_angle)
+    r = fixed_count_radius(alpha, coil)
     return fiber.length * r * r / (section.GJ * math.cos(alpha) ** 2
                                    + section.EI * math.sin(alpha) ** 2)
 
@@ -145,8 +154,10 @@ class KinetostaticModel:
         """Return y (m) with f_rod(y, T) = load (N); coil contact not applied.
 
         Newton's method from ``guess`` (m), safeguarded by bisection within the
-        geometric range of eq. (26).
+        geometric range of eq. (26). A load above ``fiber.break_force`` raises
+        ThreadBreakError: the thread breaks before it gets there.
         """
+        check_thread_strength(load, self.params.fiber)
         lo = -self.natural_length + 1e-9 * self.params.fiber.length
         hi = self.params.fiber.length * 0.999 - self.natural_length
         y = 0.0 if guess is None else min(max(guess, lo), hi)
@@ -172,8 +183,9 @@ class KinetostaticModel:
         At equilibrium the tension equals the load, so eq. (11) is evaluated at
         the load itself and no fixed point on F is needed: a secant solve on y
         alone (what the quasi-static reduction calls on every temperature).
-        Coil contact not applied.
+        Coil contact not applied; ThreadBreakError above ``fiber.break_force``.
         """
+        check_thread_strength(load, self.params.fiber)
         y0 = 0.0 if guess is None else guess
         g0 = self._tension_at(y0, temperature, load) - load
         y1 = y0 + 1e-6 * self.params.fiber.length
@@ -196,6 +208,11 @@ class LoveModel(KinetostaticModel):
         p = self.params
         sin_h = love_heated_pitch_sine(self.untwist(temperature), p.coil)
         sin_a = (self.natural_length + elongation) / p.fiber.length
+        if not -1.0 < sin_a < 1.0:  # eq. (25) divides by cos(alpha)
+            raise ArithmeticError(
+                f'love: coil length {self.natural_length + elongation:.4g} m at {temperature:g} '
+                f'degC reaches the fiber length l_t = {p.fiber.length:g} m (a straight fiber): '
+                "Love's inextensible helix has no state there; use cst or rod")
         return love_tension(sin_a, sin_h, self.section(temperature, force), p.coil)
 
     def free_elongation(self, temperature):
@@ -216,8 +233,9 @@ class CstModel(KinetostaticModel):
         p = self.params
         alpha = pitch_angle_of_length(self.natural_length + elongation, p.fiber)
         section = self.section(temperature, force)
-        compliance = cst_compliance(p.coil.radius, alpha, section, p.fiber)
-        a_cst = cst_kinematic_coefficient(p.coil.radius, alpha, p.fiber)
+        radius = fixed_count_radius(alpha, p.coil)
+        compliance = cst_compliance(radius, alpha, section, p.fiber)
+        a_cst = cst_kinematic_coefficient(radius, alpha, p.fiber)
         return (elongation - a_cst * self.untwist(temperature)) / compliance
 
 
@@ -225,20 +243,23 @@ def contact_elongation(params):
     """Return the elongation (m) at which neighbouring coils touch (Sec. V-D1).
 
     The axial length cannot fall below l_t sin(alpha_min) (a hard stop, the
-    reading adopted in docs/decisions.md, D8). Returns -inf when contact is off or
-    the shape is conical (its coils pass each other).
+    reading adopted in docs/decisions.md, D8). With ``coil.contact`` off the measured
+    stop is not applied, but the coils still cannot pass through each other: the
+    stop is then where the turns touch, l_t sin(alpha_s) (limits.touching_pitch_angle).
+    Returns -inf for a conical shape (its coils pass each other).
     """
     c = params.coil
-    if not c.contact or c.shape != 'helix':
+    if c.shape != 'helix':
         return -math.inf
-    return params.fiber.length * math.sin(c.min_pitch_angle) - natural_length(
-        params.fiber, c)
+    angle = c.min_pitch_angle if c.contact else touching_pitch_angle(params.fiber, c)
+    return params.fiber.length * math.sin(angle) - natural_length(params.fiber, c)
 
 
 def static_elongation(model, load, temperature):
     """Return the static elongation y (m) under load (N) at temperature (degC).
 
     ``model`` is a KinetostaticModel; coil contact (Sec. V-D1) bounds y from below.
+    Raises ThreadBreakError when the load exceeds the thread's strength.
     """
     y = model.equilibrium_elongation(load, temperature)
     return max(y, contact_elongation(model.params))

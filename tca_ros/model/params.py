@@ -25,6 +25,9 @@ import re
 import numpy as np
 import yaml
 
+from tca_ros.model.limits import parameter_limit_violation
+from tca_ros.model.reference_state import resolve_reference
+
 GRAVITY = 9.81  # m/s^2, g_r of Sec. III-C [1]
 
 #: Node name the params files are keyed by (any namespace, ``/**/tca``).
@@ -81,12 +84,17 @@ SCHEMA = (
        "calibrated for a user's muscle).", 0.01, 20.0),
     _p('fiber.heated_radius_in_section', True, '-',
        'Use the heated radius r_t Gamma(T)/Gamma(T0) in A, I and J (as the authors do).'),
+    _p('fiber.break_force', 2.354, 'N',
+       'Thread strength: a tension above it breaks the thread (Sec. V-A: heavier than '
+       '240 g, i.e. 2.354 N, may break the thread).', 1e-4, 1e4),
     # Coil reference state (Table III)
     _p('coil.shape', 'helix', '-', 'Reference centreline: helix (12) or conical spiral (36).',
        choices=SHAPES),
     _p('coil.radius', 0.408e-3, 'm', 'Coil radius r* of the helix.', 1e-5, 0.1),
+    # Steeper coils are nearly straight fibers, not TCAs: the rod model's y(F) is flat
+    # to round-off at 89 deg, and at 80 deg the helix inverts on heating by 60 degC.
     _p('coil.pitch_angle_deg', 22.42, 'deg', 'Coil pitch angle alpha* of the helix.',
-       0.5, 89.0),
+       0.5, 60.0),
     _p('coil.spiral_pitch', 10.6e-3, 'm', 'Conical spiral pitch p_c (a = 2 pi / p_c).',
        1e-4, 1.0),
     _p('coil.cone_angle_deg', 12.0, 'deg', 'Conical spiral cone angle (b = tan(angle/2)).',
@@ -94,6 +102,16 @@ SCHEMA = (
     _p('coil.contact', True, '-', 'Stop contraction when neighbouring coils touch.'),
     _p('coil.min_pitch_angle_deg', 12.0, 'deg',
        'Pitch angle alpha_min at which coils touch (Sec. V-D1).', 0.0, 89.0),
+    _p('coil.crept_reference', False, '-',
+       'Reference crept under dynamics.load (Sec. V-D1): alpha*, r* follow the law of '
+       "reference_state.py; false: Table III's alpha*, r* for every load."),
+    _p('coil.unloaded_pitch_angle_deg', 15.0, 'deg',
+       "Crept reference: rest pitch angle a_0 crept without load (authors' code: 15 deg).",
+       0.5, 60.0),
+    _p('coil.crept_force_scale', 0.24, 'N',
+       'Crept reference: load scale F_c of sin a* = sin a_c - (sin a_c - sin a_0) '
+       "exp(-F/F_c) (0.24 N fits the authors' 15/16/20/22 deg at 0/2/30/60 g to 0.43 deg).",
+       1e-4, 100.0),
     # Thermal model, eq. (1)
     _p('thermal.convection_coefficient', 23.0, 'W/(m^2 K)', 'Natural convection h.',
        0.0, 1e4),
@@ -283,19 +301,30 @@ class FiberParams:
     gamma_coefficients: tuple
     untwist_gain: float
     heated_radius_in_section: bool
+    break_force: float
 
 
 @dataclass(frozen=True)
 class CoilParams:
-    """Coil reference state (Table III): radius (m), angles (rad)."""
+    """Coil reference state (Table III): radius (m), angles (rad), force scale (N).
+
+    ``radius`` and ``pitch_angle`` are the reference the models use: the as-coiled
+    ``coiled_radius`` and ``coiled_pitch_angle`` of the params file, or with
+    ``crept_reference`` those crept under dynamics.load (reference_state.py).
+    """
 
     shape: str
-    radius: float
-    pitch_angle: float
+    coiled_radius: float
+    coiled_pitch_angle: float
     spiral_pitch: float
     cone_angle: float
     contact: bool
     min_pitch_angle: float
+    crept_reference: bool
+    unloaded_pitch_angle: float
+    crept_force_scale: float
+    radius: float = math.nan  # set by reference_state.resolve_reference
+    pitch_angle: float = math.nan
 
 
 @dataclass(frozen=True)
@@ -396,7 +425,10 @@ class TcaParams:
         return from_flat_dict(flat, source=self.source)
 
 
-_DEG = {'bias_angle_deg', 'pitch_angle_deg', 'cone_angle_deg', 'min_pitch_angle_deg'}
+_DEG = {'bias_angle_deg', 'pitch_angle_deg', 'cone_angle_deg', 'min_pitch_angle_deg',
+        'unloaded_pitch_angle_deg'}
+#: Schema names whose dataclass field is not the name without its unit suffix.
+_FIELDS = {'coil.radius': 'coiled_radius', 'coil.pitch_angle_deg': 'coiled_pitch_angle'}
 _GROUPS = {'fiber': FiberParams, 'coil': CoilParams, 'thermal': ThermalParams,
            'moduli': ModuliParams, 'dynamics': DynamicsParams,
            'electrical': ElectricalParams, 'effects': EffectParams, 'rig': RigParams}
@@ -435,8 +467,9 @@ def from_flat_dict(values, source=''):
                 value = math.radians(value)
             if isinstance(value, list):
                 value = tuple(value)
-            kwargs[_field_name(key)] = value
+            kwargs[_FIELDS.get(name) or _field_name(key)] = value
         groups[group] = cls(**kwargs)
+    groups['coil'] = resolve_reference(groups['coil'], groups['dynamics'].load)
     params = TcaParams(tca_type=checked['tca_type'], model=checked['model'],
                        source=source, **groups)
     _check_consistency(params)
@@ -447,7 +480,9 @@ def _check_consistency(p):
     """Cross-parameter rules that a single range cannot express.
 
     Each rule keeps the model finite: the fiber loses heat (eq. (1) has a finite time
-    constant), the coil is wider than its fiber, creep stays within the coil's stretch.
+    constant), the coil is wider than its fiber, creep stays within the coil's stretch;
+    and physical (limits.parameter_limit_violation): coils that do not overlap, a load
+    within the thread's strength, an untwist defined up to the melt.
     """
     _check_thermal(p)
     if p.coil.shape == 'helix' and p.coil.radius < p.fiber.radius:
@@ -471,6 +506,15 @@ def _check_consistency(p):
         raise ParameterError(
             f"parameter 'fiber.gamma_coefficients' = {list(p.fiber.gamma_coefficients)}: "
             f'Gamma(T0) must be positive')
+    c = p.coil
+    if c.crept_reference and c.unloaded_pitch_angle > c.coiled_pitch_angle:
+        raise ParameterError(
+            f"parameter 'coil.unloaded_pitch_angle_deg' = {math.degrees(c.unloaded_pitch_angle):g}"
+            f': the crept reference needs it at most coil.pitch_angle_deg '
+            f'({math.degrees(c.coiled_pitch_angle):g}): a load stretches the crept coil')
+    violation = parameter_limit_violation(p)  # strength, melt range, overlapping coils
+    if violation:
+        raise ParameterError(violation)
 
 
 def _check_thermal(p):
@@ -498,7 +542,7 @@ def to_flat_dict(params):
             head, _, key = spec.name.partition('.')
             if head != group:
                 continue
-            value = getattr(obj, _field_name(key))
+            value = getattr(obj, _FIELDS.get(spec.name) or _field_name(key))
             if key in _DEG:
                 value = math.degrees(value)
             if isinstance(value, tuple):

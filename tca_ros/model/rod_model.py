@@ -7,182 +7,35 @@ M_e = 0). The full-length BVP (:mod:`tca_ros.rod.statics`) agrees with it to the
 clamp boundary layer (test/test_rod_statics.py); solving the algebraic problem is
 what makes the model fast.
 
-For the dynamics, f_rod must cost microseconds. The elongation y(T, F) is computed
-exactly on a grid of temperatures and tensions (moduli of Eq. (11) evaluated at the
-tension itself, so no fixed point is needed), then inverted per temperature to
-F(T, eta) on a uniform grid of eta = y - y_free(T), together with the stiffness
-dF/dy. A query interpolates linearly in T and by cubic Hermite in eta, in plain
-Python (docs/rod.md gives the measured error and cost). Tables are cached per
-parameter set.
+For the dynamics f_rod must cost microseconds: it is read from a table of exact
+solutions (:mod:`tca_ros.model.rod_table`, cached per parameter set).
 
 References
 ----------
 [1] Sun et al., IEEE T-RO 2022, Eqs. (4), (8)-(18), Algorithm 1, Appendix C.
 """
-from dataclasses import dataclass, replace
+from dataclasses import replace
 import functools
 import math
 
 import numpy as np
-from scipy.interpolate import CubicHermiteSpline
 from scipy.optimize import brentq
 
 from tca_ros.model.fiber import unit_untwist
-from tca_ros.model.kinetostatics import cst_compliance, KinetostaticModel
-from tca_ros.model.moduli import load_torsion_strain, section_stiffness
+from tca_ros.model.kinetostatics import KinetostaticModel
+from tca_ros.model.limits import check_thread_strength, touching_pitch_angle
+from tca_ros.model.moduli import section_stiffness
 from tca_ros.model.params import EffectParams, RigParams
-from tca_ros.rod.helix import helix_centreline, uniform_helix_equilibrium
-from tca_ros.rod.reference import conical_spiral_reference, helix_reference, helix_strain
+from tca_ros.model.rod_table import _helix_state, _linear_stiffness, _natural_length
+from tca_ros.model.rod_table import build_table, helix_elongation  # noqa: F401 (API)
+from tca_ros.model.rod_table import RodTableError  # noqa: F401 (raised by the table)
+from tca_ros.rod.helix import helix_centreline
+from tca_ros.rod.reference import conical_spiral_reference, helix_reference
 from tca_ros.rod.reference import integrate_strains
 from tca_ros.rod.statics import solve_continuation
 
-TABLE_TEMP_STEP = 2.5  # K; linear interpolation in T, error measured in docs/rod.md
-TABLE_TEMP_BELOW = 20.0  # K below ambient covered by the table
-TABLE_TEMP_MAX = 200.0  # degC, above the 160 degC of the experiments; clamped beyond
-TABLE_FORCE_POINTS = 150  # tensions solved per temperature row
-TABLE_ETA_POINTS = 1201  # uniform elongation points per row after inversion
-STRETCH_FRACTION = 1.0  # table spans tension up to this fraction of l_t - l* (linear)
-COMPRESS_FRACTION = 1.5  # and compression to this multiple of the contact travel
-DERIVATIVE_STEP = 1e-7  # N, forward difference of y(F) (moduli depend on F)
 LOAD_RAMP_STEPS = 8  # load continuation steps for a loaded conical TCA
 CONICAL_STEPS_PER_TURN = 128  # second-order mesh: shape error ~3e-4 of the radius
-
-
-def _section_vector(section):
-    return section.EI, section.GJ, section.GA, section.EA
-
-
-def helix_elongation(params, temperature, tension, rotation_locked=False):
-    """Return the exact helix elongation y = l_t v.u/|u| - l* (m) at (T, F).
-
-    Parameters
-    ----------
-    params : TcaParams
-        A helical TCA (``coil.shape == 'helix'``).
-    temperature : float
-        Fiber temperature T (degC).
-    tension : float or ndarray
-        Axial force F (N), tensile positive; the moduli are evaluated at F (Eq. (11)).
-    rotation_locked : bool
-        Hold the coil angle at its ambient reference value instead of a free end.
-
-    Returns
-    -------
-    float or ndarray
-        Elongation (m), NaN where the helix solve failed.
-    """
-    eq = _helix_state(params, temperature, tension, rotation_locked)
-    y = params.fiber.length * eq.axial_stretch - _natural_length(params)
-    return np.where(eq.success, y, np.nan)
-
-
-def _natural_length(params):
-    return params.fiber.length * math.sin(params.coil.pitch_angle)
-
-
-def _helix_state(params, temperature, tension, rotation_locked=False):
-    coil = params.coil
-    kappa, tau = helix_strain(coil.radius, coil.pitch_angle)
-    untwist = unit_untwist(temperature, params.fiber, params.thermal.ambient_temperature)
-    forces = np.atleast_1d(np.asarray(tension, dtype=float))
-    stiff = np.array([_section_vector(section_stiffness(temperature, float(f), params))
-                      for f in forces.ravel()]).T.reshape((4,) + forces.shape)
-    lock = math.hypot(kappa, tau) if rotation_locked else None
-    eq = uniform_helix_equilibrium(forces, (kappa, tau + untwist), tuple(stiff),
-                                   turn_rate_lock=lock)
-    if np.ndim(tension) == 0:
-        eq = type(eq)(**{k: (np.asarray(v)[..., 0] if k != 'n_iter' else v)
-                         for k, v in eq.__dict__.items()})
-    return eq
-
-
-class RodTableError(RuntimeError, ArithmeticError):
-    """The exact helices cannot fill the (elongation, temperature) table of a TCA.
-
-    An ArithmeticError too, so the fits that treat a model failure as a failed
-    candidate (ValueError, ArithmeticError) treat this one alike.
-    """
-
-
-@dataclass(frozen=True)
-class _Table:
-    temp0: float
-    temp_step: float
-    n_temp: int
-    eta0: float
-    eta_step: float
-    n_eta: int
-    free: list  # y_free(T_i), m
-    force: list  # F(T_i, eta_k) flattened row-major, N
-    slope: list  # dF/dy(T_i, eta_k) flattened, N/m
-
-
-def _clip_force(params):
-    """Return the tension (N) where tau of Eq. (11) reaches its calibrated maximum."""
-    per_newton = load_torsion_strain(1e-3, params.fiber, params.coil, params.moduli) / 1e-3
-    if per_newton <= 0.0 or params.moduli.constant:
-        return math.inf
-    return params.moduli.max_torsion_strain / per_newton
-
-
-def _linear_stiffness(params):
-    section = section_stiffness(params.thermal.ambient_temperature, 0.0, params)
-    return 1.0 / cst_compliance(params.coil.radius, params.coil.pitch_angle, section,
-                                params.fiber)
-
-
-@functools.lru_cache(maxsize=8)
-def _build_table(params, rotation_locked):
-    """Solve exact helices on a (T, F) grid and invert to F(T, eta); see module doc."""
-    length = params.fiber.length
-    l_star = _natural_length(params)
-    k_lin = _linear_stiffness(params)
-    f_hi = k_lin * STRETCH_FRACTION * (length - l_star)
-    travel = l_star - length * math.sin(min(params.coil.min_pitch_angle,
-                                            0.5 * params.coil.pitch_angle))
-    f_lo = -k_lin * COMPRESS_FRACTION * travel
-    ambient = params.thermal.ambient_temperature
-    temps = np.arange(ambient - TABLE_TEMP_BELOW, TABLE_TEMP_MAX + 0.5 * TABLE_TEMP_STEP,
-                      TABLE_TEMP_STEP)
-    kinks = [f for f in (0.0, _clip_force(params)) if f_lo < f < f_hi]
-    edges = [f_lo] + kinks + [f_hi]
-    # Split the tension range where Eq. (11) clips tau (dE_f/dF jumps, so does dy/dF):
-    # each piece gets its own Hermite inverse with one-sided end slopes.
-    n_piece = max(8, TABLE_FORCE_POINTS // (len(edges) - 1))
-    pieces = [np.linspace(a, b, n_piece) for a, b in zip(edges[:-1], edges[1:])]
-    ys, slopes, free = [], [], []
-    for temp in temps:
-        row_y, row_dy = [], []
-        for f in pieces:
-            y = helix_elongation(params, temp, f, rotation_locked)
-            step = np.full(f.size, DERIVATIVE_STEP)
-            step[-1] = -DERIVATIVE_STEP  # stay inside the piece at its right end
-            dy = (helix_elongation(params, temp, f + step, rotation_locked) - y) / step
-            if not (np.all(np.isfinite(y)) and np.all(dy > 0.0)):
-                raise RodTableError(f'rod table: exact helix failed or lost monotonicity '
-                                    f'at T = {temp:g} degC')
-            row_y.append(y)
-            row_dy.append(dy)
-        ys.append(row_y)
-        slopes.append(row_dy)
-        free.append(float(row_y[edges.index(0.0)][0]))
-    free = np.array(free)
-    eta_lo = float(np.max([row[0][0] - fr for row, fr in zip(ys, free)]))
-    eta_hi = float(np.min([row[-1][-1] - fr for row, fr in zip(ys, free)]))
-    etas = np.linspace(eta_lo, eta_hi, TABLE_ETA_POINTS)
-    force_tab = np.empty((temps.size, etas.size))
-    slope_tab = np.empty_like(force_tab)
-    for i in range(temps.size):
-        targets = free[i] + etas
-        for f, y, dy in zip(pieces, ys[i], slopes[i]):
-            inside = (targets >= y[0]) & (targets <= y[-1])
-            inverse = CubicHermiteSpline(y, f, 1.0 / dy)
-            force_tab[i, inside] = inverse(targets[inside])
-            slope_tab[i, inside] = inverse(targets[inside], 1)
-    return _Table(temp0=float(temps[0]), temp_step=TABLE_TEMP_STEP, n_temp=temps.size,
-                  eta0=eta_lo, eta_step=float(etas[1] - etas[0]), n_eta=etas.size,
-                  free=free.tolist(), force=force_tab.ravel().tolist(),
-                  slope=slope_tab.ravel().tolist())
 
 
 class RodKinetostatics(KinetostaticModel):
@@ -209,47 +62,14 @@ class RodKinetostatics(KinetostaticModel):
                              'model needs a helix; use conical_shapes for a conical TCA')
         super().__init__(params)
         self.rotation_locked = bool(rotation_locked)
-        self._table = _build_table(params, self.rotation_locked)
+        # the table does not read the strength: share it across break forces
+        table_params = replace(params, fiber=replace(params.fiber, break_force=1.0))
+        self._table = build_table(table_params, self.rotation_locked)
 
-    def _locate(self, elongation, temperature):
-        tab = self._table
-        t = (temperature - tab.temp0) / tab.temp_step
-        t = min(max(t, 0.0), tab.n_temp - 1.000001)
-        i = int(t)
-        w = t - i
-        free = tab.free[i] + w * (tab.free[i + 1] - tab.free[i])
-        x = (elongation - free - tab.eta0) / tab.eta_step
-        return i, w, x
-
-    def _row(self, i, k, u):
-        """Hermite value and slope at cell k (fraction u) of temperature row i."""
-        tab = self._table
-        j = i * tab.n_eta + k
-        f0, f1 = tab.force[j], tab.force[j + 1]
-        d0, d1 = tab.slope[j] * tab.eta_step, tab.slope[j + 1] * tab.eta_step
-        u2 = u * u
-        u3 = u2 * u
-        value = ((2 * u3 - 3 * u2 + 1) * f0 + (u3 - 2 * u2 + u) * d0
-                 + (3 * u2 - 2 * u3) * f1 + (u3 - u2) * d1)
-        slope = ((6 * u2 - 6 * u) * f0 + (3 * u2 - 4 * u + 1) * d0
-                 + (6 * u - 6 * u2) * f1 + (3 * u2 - 2 * u) * d1) / tab.eta_step
-        return value, slope
-
-    def _evaluate(self, elongation, temperature):
-        tab = self._table
-        i, w, x = self._locate(elongation, temperature)
-        last = tab.n_eta - 1
-        if x < 0.0:  # beyond the table: linear extrapolation with the edge stiffness
-            k, u, extra = 0, 0.0, x * tab.eta_step
-        elif x >= last:
-            k, u, extra = last - 1, 1.0, (x - last) * tab.eta_step
-        else:
-            k = int(x)
-            u, extra = x - k, 0.0
-        f_a, k_a = self._row(i, k, u)
-        f_b, k_b = self._row(i + 1, k, u)
-        slope = k_a + w * (k_b - k_a)
-        return f_a + w * (f_b - f_a) + slope * extra, slope
+    @property
+    def temperature_range(self):
+        """Return (first, last) temperature (degC) of the table's rows."""
+        return self._table.temp0, self._table.top
 
     def tension(self, elongation, temperature, force_guess=None):
         """Return f_rod (N) at elongation y (m) and temperature T (degC), Eq. (18).
@@ -257,18 +77,22 @@ class RodKinetostatics(KinetostaticModel):
         ``force_guess`` is accepted for interface compatibility and ignored: the
         table already satisfies the moduli fixed point of Eq. (11).
         """
-        return self._evaluate(elongation, temperature)[0]
+        return self._table.evaluate(elongation, temperature)[0]
 
     def stiffness(self, elongation, temperature):
         """Return d f_rod / d y (N/m) at elongation (m) and temperature (degC)."""
-        return self._evaluate(elongation, temperature)[1]
+        return self._table.evaluate(elongation, temperature)[1]
 
     def free_elongation(self, temperature):
         """Return the unloaded elongation y_free(T) (m) (exact helix, F = 0)."""
         return float(helix_elongation(self.params, temperature, 0.0, self.rotation_locked))
 
     def equilibrium_elongation(self, load, temperature, guess=None):
-        """Return y (m) where f_rod(y, T) = load (N), solved exactly; no coil contact."""
+        """Return y (m) where f_rod(y, T) = load (N), solved exactly; no coil contact.
+
+        ThreadBreakError when the load exceeds ``fiber.break_force``.
+        """
+        check_thread_strength(load, self.params.fiber)
         return float(helix_elongation(self.params, temperature, load, self.rotation_locked))
 
     def direct_tension(self, elongation, temperature):
@@ -381,7 +205,8 @@ def rod_statics_sweep(params, load, temperatures, n_steps=None, **solver_options
     Returns
     -------
     list of RodSolution
-        One per temperature; check ``success``.
+        One per temperature; check ``success``. A solution whose coils would pass
+        through each other (length below l_t sin(alpha_s)) is marked failed.
     """
     offset = (params.coil.radius, 0.0, 0.0) if params.coil.shape == 'helix' else (0, 0, 0)
 
@@ -389,8 +214,29 @@ def rod_statics_sweep(params, load, temperatures, n_steps=None, **solver_options
         return dict(reference=rod_reference(params, temp),
                     stiffness=stiffness_vector(params, temp, load),
                     end_force=np.array([0.0, 0.0, -load]), end_load_offset=offset)
-    return solve_continuation(problem, list(temperatures), n_steps=n_steps,
-                              **solver_options)
+    sols = solve_continuation(problem, list(temperatures), n_steps=n_steps, **solver_options)
+    if params.coil.shape != 'helix':
+        return sols
+    return [_refuse_overlapping_coils(params, temp, sol) for temp, sol in zip(temperatures, sols)]
+
+
+def _refuse_overlapping_coils(params, temperature, solution):
+    """Return ``solution``, marked failed when its coils would pass through each other.
+
+    The rod BVP has no self-contact: past the length at which neighbouring turns touch
+    (limits.touching_pitch_angle) it still converges, to a coil whose turns overlap
+    and finally to a negative length. Such a solution describes no TCA.
+    """
+    if not solution.success:
+        return solution
+    touching = params.fiber.length * math.sin(touching_pitch_angle(params.fiber, params.coil))
+    length = solution_elongation(params, solution) + _natural_length(params)
+    if length >= touching:
+        return solution
+    return replace(solution, success=False, message=(
+        f'at {float(temperature):g} degC the coil length {length:.4g} m is below '
+        f'{touching:.4g} m, where its turns touch: the coils would pass through each other '
+        '(the BVP has no self-contact)'))
 
 
 def solution_elongation(params, solution):
