@@ -78,7 +78,8 @@ def cst_tension(elongation, temp, tension, c):
 
         F = (y - A_cst Delta theta_bar^h) / (1/K_cst),
         1/K = l_t (r^2 cos^2 a / GJ + r^2 sin^2 a / EI + cos^2 a / GA + sin^2 a / EA),
-        A_cst = l_t r cos a,  sin a = (l* + y) / l_t  (Eq. (26))
+        A_cst = l_t r cos a,  sin a = (l* + y) / l_t  (Eq. (26)),
+        r = r* cos a / cos a*  (Eq. (24), as kinetostatics.CstModel)
     """
     sin_a = np.clip((c.natural_length + elongation) / c.fiber_length, -1.0, 1.0)
     s2 = sin_a * sin_a
@@ -90,11 +91,12 @@ def cst_tension(elongation, temp, tension, c):
     second_moment = area * r * r / 4.0
     e = c.youngs * ratio
     g = c.shear * ratio
-    r2 = c.coil_radius * c.coil_radius
+    coil_radius = c.coil_radius * np.sqrt(c2) / c.cos_pitch  # Eq. (24), fixed coil count
+    r2 = coil_radius * coil_radius
     compliance = c.fiber_length * (r2 * c2 / (2.0 * g * second_moment)
                                    + r2 * s2 / (e * second_moment)
                                    + c2 / (g * area) + s2 / (e * area))
-    a_cst = c.fiber_length * c.coil_radius * np.sqrt(c2)
+    a_cst = c.fiber_length * coil_radius * np.sqrt(c2)
     return (elongation - a_cst * unit_untwist(temp, c)) / compliance
 
 
