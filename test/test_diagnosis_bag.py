@@ -66,12 +66,16 @@ def test_load_step_survives_and_load_before_it_comes_from_the_config(tmp_path):
     rec = read_bag_record(str(bag), tca='free_stroke', mass_kg=0.03)
     config_load = load_params('free_stroke').dynamics.load
     k = LOAD_STEP[0]
-    # held from the message received just after joint_states k, so from sample k + 1 on
-    np.testing.assert_allclose(rec.load[:k + 1], config_load)
+    # received 2 us (stamp clock) after joint_states k: it acts over nearly all of the
+    # interval [t_k, t_k+1), which sample k holds (the time average of the held value)
+    np.testing.assert_allclose(rec.load[:k], config_load)
     np.testing.assert_allclose(rec.load[k + 1:], LOAD_STEP[1])
+    assert rec.load[k] == pytest.approx(LOAD_STEP[1], abs=1e-3 * LOAD_STEP[1])
+    assert rec.load[k] != LOAD_STEP[1]  # the 2 us before the message hold the config load
     # before the first power command: 0 W, not the command's value
-    np.testing.assert_allclose(rec.power[:POWER_ON + 1], 0.0)
+    np.testing.assert_allclose(rec.power[:POWER_ON], 0.0)
     np.testing.assert_allclose(rec.power[POWER_ON + 1:], 0.5)
+    assert rec.power[POWER_ON] == pytest.approx(0.5, rel=1e-3)
 
 
 def test_a_namespaced_joint_is_found_among_others(tmp_path):
@@ -89,9 +93,9 @@ def test_without_a_config_the_load_before_the_first_message_is_mass_times_g(tmp_
     bag = tmp_path / 'bag'
     write_stamped_bag(bag)
     rec = read_bag_record(str(bag), mass_kg=0.05)
-    np.testing.assert_allclose(rec.load[:LOAD_STEP[0] + 1], 0.05 * GRAVITY)
+    np.testing.assert_allclose(rec.load[:LOAD_STEP[0]], 0.05 * GRAVITY)
     rec = read_bag_record(str(bag), mass_kg=0.05, load=0.1)
-    np.testing.assert_allclose(rec.load[:LOAD_STEP[0] + 1], 0.1)
+    np.testing.assert_allclose(rec.load[:LOAD_STEP[0]], 0.1)
 
 
 def test_header_stamps_set_the_time_of_displacement_and_temperature(tmp_path):

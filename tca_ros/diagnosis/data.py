@@ -496,12 +496,23 @@ def read_bag_record(path, sample_rate=None, tca='', mass_kg=None, load=None,
         return np.where(rel > ref[-1], t_x[-1] + rel - ref[-1], out)
 
     def hold(name, before):
+        """Return the input over each interval [t_k, t_k+1) of the grid: the time
+        average of the messages' held values (a command that arrives within an
+        interval acts for the rest of it, as the node applies it from the physics
+        step it arrives in; the record holds sample k over that interval)."""
         samples = series[name]
         if not samples:
             return np.full_like(grid, before)
-        idx = np.searchsorted(on_clock(samples), grid, side='right') - 1
-        values = np.array([s[2] for s in samples])
-        return np.where(idx >= 0, values[np.clip(idx, 0, None)], before)
+        times = on_clock(samples)
+        rel = np.array([s[2] for s in samples]) - before  # held value after each message
+        # F(t) = integral of (held - before) up to t: piecewise linear, kinks at messages
+        at_messages = np.concatenate(([0.0], np.cumsum(rel[:-1] * np.diff(times))))
+        edges = np.append(grid, grid[-1] + 1.0 / rate)
+        j = np.searchsorted(times, edges, side='right') - 1
+        inside = np.clip(j, 0, None)
+        integral = np.where(j >= 0, at_messages[inside] + rel[inside] * (edges - times[inside]),
+                            0.0)
+        return before + np.diff(integral) * rate
 
     mass = float(mass_kg) if mass_kg is not None else 0.0
     if load is None and tca:
