@@ -20,7 +20,8 @@ the input terms is Ljung's residual-input independence test (System
 Identification, 2nd ed., Sec. 16.6) in regression form. A residual is
 *structured* when the input terms are significant and what they predict is
 larger than the rest of the residual (it is not "within the noise") and than
-a small share of the measured stroke or swing.
+a small share of the measured stroke or swing; or when the rest is itself
+larger than 5 % of the swing (no sensor is that noisy).
 """
 from dataclasses import dataclass
 import math
@@ -31,6 +32,7 @@ from scipy import stats
 STRUCTURE_ALPHA = 1e-3  # significance level of the residual-input test
 STRUCTURE_NOISE_SHARE = 1.0  # predictable residual within this many noise RMS is noise
 STRUCTURE_FLOOR = 0.002  # ... and below this share of the signal swing is ignored
+MAX_NOISE_SHARE = 0.05  # a "noise" above this share of the swing is no sensor's: unexplained
 STRUCTURE_RATE_HZ = 2.0  # the structure test runs on block means at about this rate (Hz)
 MAX_AR_ORDER = 3  # highest order of the AR noise model
 MAX_NOISE_TAU_S = 5.0  # s: noise memory beyond this is drift (a nuisance term), not AR
@@ -122,11 +124,20 @@ class StructureTest:
     floor: float  # practical floor on predictable_rms
     ar_order: int  # order of the AR noise model
     n: int  # samples in the test (block means)
+    swing: float = math.inf  # range of the measured signal (channel units)
+    wander_rms: float = 0.0  # RMS of the block means beyond offset, drift and inputs
 
     @property
     def structured(self):
-        """Return True when the inputs predict a practically relevant part of the residual."""
-        return self.p_value < STRUCTURE_ALPHA and self.predictable_rms > self.floor
+        """Return True when the residual is more than noise.
+
+        The inputs predict a practically relevant part of it, or what neither
+        they nor an offset and a drift per record describe is itself larger than
+        MAX_NOISE_SHARE of the swing (no sensor is that noisy: the model misses
+        something the regressors do not describe).
+        """
+        predicted = self.p_value < STRUCTURE_ALPHA and self.predictable_rms > self.floor
+        return predicted or self.wander_rms > MAX_NOISE_SHARE * self.swing
 
 
 def input_terms(predicted, rise, power, sample_rate, thermal_tau):
@@ -182,7 +193,7 @@ def structure_test(segments, swing, rate_hz=STRUCTURE_RATE_HZ, floor_share=STRUC
     if n < 12 or not parts:
         e = np.concatenate(blocked) if blocked else np.zeros(0)
         floor = max(floor_share * swing, noise_share * math.sqrt(native_ms))
-        return StructureTest(1.0, 0.0, math.sqrt(native_ms), floor, 0, e.size)
+        return StructureTest(1.0, 0.0, math.sqrt(native_ms), floor, 0, e.size, swing)
     cols = min(x.shape[1] for _, x in parts)
     es = [e for e, _ in parts]
     xs = [x[:, :cols] for _, x in parts]
@@ -229,8 +240,10 @@ def structure_test(segments, swing, rate_hz=STRUCTURE_RATE_HZ, floor_share=STRUC
     raw, *_ = np.linalg.lstsq(np.vstack([np.column_stack([u, x]) for u, x in zip(nuis, xs)]),
                               np.concatenate(es), rcond=None)
     predictable = np.concatenate([x @ raw[k:] - np.mean(x @ raw[k:]) for x in xs])
+    wander = np.concatenate([e - np.column_stack([u, x]) @ raw for e, u, x in zip(es, nuis, xs)])
     predictable_ms = float(np.mean(predictable ** 2))
     noise_rms = math.sqrt(max(native_ms - predictable_ms, 0.0))  # at the record rate
     floor = max(floor_share * swing, noise_share * noise_rms)
     return StructureTest(p_value=p, predictable_rms=math.sqrt(predictable_ms),
-                         noise_rms=noise_rms, floor=floor, ar_order=len(phi), n=n)
+                         noise_rms=noise_rms, floor=floor, ar_order=len(phi), n=n,
+                         swing=swing, wander_rms=float(np.sqrt(np.mean(wander ** 2))))
