@@ -14,7 +14,7 @@ from tca_ros.cli import main
 from tca_ros.model.dynamics import TcaSimulator
 from tca_ros.model.params import dump_params, GRAVITY, with_effects
 from tca_ros.model.resistance import power_from_voltage
-from tca_ros.model.rod_model import TABLE_TEMP_STEP
+from tca_ros.model.rod_table import TABLE_TEMP_BELOW, TABLE_TEMP_STEP
 from tca_ros.model.thermal import thermal_conductance, thermal_time_constant
 from tca_ros.toolkit.linearize import linearize, OperatingPointError
 
@@ -139,8 +139,9 @@ def test_rod_dc_gain_is_the_statics_slope_within_the_table_error(free_stroke):
     local = statics_slope('rod', op.load, op.temperature, 0.1) * d_temp_d_power
     assert plant.dc_gain() == pytest.approx(local, rel=0.015)
     ambient = free_stroke.thermal.ambient_temperature
-    cell = math.floor((op.temperature - ambient + 20.0) / TABLE_TEMP_STEP)  # table from -20 K
-    low = ambient - 20.0 + TABLE_TEMP_STEP * cell
+    first_row = ambient - TABLE_TEMP_BELOW  # degC, the table's first row
+    cell = math.floor((op.temperature - first_row) / TABLE_TEMP_STEP)
+    low = first_row + TABLE_TEMP_STEP * cell
     chord = statics_slope('rod', op.load, low + 0.5 * TABLE_TEMP_STEP,
                           0.5 * TABLE_TEMP_STEP) * d_temp_d_power
     assert plant.dc_gain() == pytest.approx(chord, rel=2e-3)

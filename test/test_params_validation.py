@@ -153,16 +153,21 @@ def test_random_in_range_sets_are_refused_in_one_line_or_stay_finite():
     """Seeded sweep (cst, love): the offline campaign's 72 + 17 + 4 failures are gone.
 
     Love's division by zero (a heated helix past flat, then pulled straight) is
-    refused at load (test_model_ranges). Left: runs whose tension passes
-    fiber.break_force (a random strength just above the load, a blocked coil pulling
-    2.4 N) end with "the thread breaks", the honest end of such a muscle; the node
-    reports it once and holds finite outputs: 10 of these 400 (a coil blocked in
-    contact at start pulls 51 N, a strength drawn 1 % above the load).
+    refused at load (test_model_ranges). Every run is refused with a one-line reason
+    or stays finite. A refusal is either at load (ParameterError, or the start
+    state) or a thread break during the run: a tension passing fiber.break_force
+    (a random strength just above the load, a coil blocked in contact at start
+    pulling 51 N) ends with "the thread breaks", the honest, reported end of such a
+    muscle (the node reports it once and holds finite outputs), not a crash: 10 of
+    these 400. Any other exception or a non-finite state fails the test.
     """
     rng = random.Random(10)
-    counts = {'refused': 0, 'finite': 0, 'failed': []}
+    counts = {'refused': 0, 'thread_breaks': 0, 'finite': 0, 'failed': []}
     for _ in range(400):
-        values = {s.name: _draw(s, rng) if rng.random() < 0.3 else s.default for s in SCHEMA}
+        # rig.* is not read by TcaSimulator (dead-weight eq. (18); the rigs have their
+        # own simulator and tests): drawing it would only reshuffle this seeded sample
+        values = {s.name: _draw(s, rng) if rng.random() < 0.3 else s.default
+                  for s in SCHEMA if not s.name.startswith('rig.')}
         values['model'] = rng.choice(['cst', 'love'])
         try:
             params = from_flat_dict(values)
@@ -172,11 +177,13 @@ def test_random_in_range_sets_are_refused_in_one_line_or_stay_finite():
             assert '\n' not in message and ' = ' in message, message
             counts['refused'] += 1
             continue
-        if failure:
+        if failure.startswith('ThreadBreakError: '):  # refused during the run, with a reason
+            assert '\n' not in failure and 'the thread breaks' in failure, failure
+            counts['thread_breaks'] += 1
+        elif failure:
             counts['failed'].append((params.model, failure))
         else:
             counts['finite'] += 1
+    assert not counts['failed'], counts['failed']  # no other exception, no NaN
     assert counts['finite'] > 90, counts  # more are refused since the physical limits (D17)
-    assert all(failure.startswith('ThreadBreakError') and 'the thread breaks' in failure
-               for _, failure in counts['failed']), counts['failed']
-    assert len(counts['failed']) <= 12, counts['failed']
+    assert counts['thread_breaks'] <= 12, counts

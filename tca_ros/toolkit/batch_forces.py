@@ -1,8 +1,9 @@
 """f_rod of Eq. (18) for N muscles at once: CST (29) and the rod model's table.
 
 NumPy forms of tca_ros.model.kinetostatics.CstModel and
-tca_ros.model.rod_model.RodKinetostatics, one value per muscle; parameters are
-arrays of shape (N,) gathered once from each muscle's TcaParams. Each function
+tca_ros.model.rod_model.RodKinetostatics (its rod_table.ForceTable), one value
+per muscle; parameters are arrays of shape (N,) gathered once from each
+muscle's TcaParams. Each function
 evaluates the same relation as its scalar original (equation numbers of [1]);
 test/test_batch.py checks them against it.
 
@@ -16,6 +17,7 @@ import numpy as np
 
 from tca_ros.model.kinetostatics import natural_length
 from tca_ros.model.rod_model import cached_rod_model
+from tca_ros.model.rod_table import RodTableError
 
 
 class MuscleArrays:
@@ -101,12 +103,14 @@ def cst_tension(elongation, temp, tension, c):
 
 
 class RodTables:
-    """The rod model's f_rod tables (rod_model._Table) of N muscles, stacked.
+    """The rod model's f_rod tables (rod_table.ForceTable) of N muscles, stacked.
 
     Muscles with the same mechanical parameters share one table; each muscle
     indexes its own by offsets into flat arrays. Evaluation follows
-    RodKinetostatics._evaluate: linear in T, cubic Hermite in eta = y - y_free(T),
-    linear extrapolation with the edge stiffness beyond the table.
+    ForceTable.evaluate: linear in T between two rows, cubic Hermite along each row
+    in eta = y - y_free(T) on that row's own eta grid, linear extrapolation with the
+    row's edge stiffness beyond it. Below the first row T is clamped; above the last
+    one RodTableError is raised, as the scalar model does.
     """
 
     def __init__(self, params_list):
@@ -119,25 +123,36 @@ class RodTables:
             owner.append(models[id(model)])
         owner = np.array(owner)
         self.owner = owner  # index of each muscle's table
+        self.tables = tables  # the scalar ForceTables, for their error messages
         starts = np.cumsum([0] + [t.n_temp * t.n_eta for t in tables])[:-1]
-        free_starts = np.cumsum([0] + [t.n_temp for t in tables])[:-1]
+        row_starts = np.cumsum([0] + [t.n_temp for t in tables])[:-1]
         self.n_tables = len(tables)
         self.force = np.concatenate([np.asarray(t.force) for t in tables])  # N
         self.slope = np.concatenate([np.asarray(t.slope) for t in tables])  # N/m
+        # per temperature row, flat over all tables
         self.free = np.concatenate([np.asarray(t.free) for t in tables])  # m
+        self.eta0 = np.concatenate([np.asarray(t.eta0) for t in tables])  # m
+        self.eta_step = np.concatenate([np.asarray(t.eta_step) for t in tables])  # m
 
         def per_muscle(name):
             return np.array([getattr(t, name) for t in tables], dtype=float)[owner]
         self.temp0, self.temp_step = per_muscle('temp0'), per_muscle('temp_step')
         self.n_temp = per_muscle('n_temp').astype(np.int64)
-        self.eta0, self.eta_step = per_muscle('eta0'), per_muscle('eta_step')
         self.n_eta = per_muscle('n_eta').astype(np.int64)
         self.start = starts[owner]
-        self.free_start = free_starts[owner]
+        self.row_start = row_starts[owner]
 
-    def _row(self, j, u):
-        """Hermite value (N) and slope (N/m) at flat cell index j, fraction u."""
-        step = self.eta_step
+    def _row(self, r, eta):
+        """Hermite value (N) and slope (N/m) of flat row r at eta (m), extrapolated."""
+        step = self.eta_step[r]
+        x = (eta - self.eta0[r]) / step
+        last = self.n_eta - 1
+        below, above = x < 0.0, x >= last
+        k = np.where(below, 0, np.where(above, last - 1,
+                                        np.clip(x, 0, last - 1).astype(np.int64)))
+        u = np.where(below, 0.0, np.where(above, 1.0, x - k))
+        extra = np.where(below, x * step, np.where(above, (x - last) * step, 0.0))
+        j = self.start + (r - self.row_start) * self.n_eta + k
         f0, f1 = self.force[j], self.force[j + 1]
         d0, d1 = self.slope[j] * step, self.slope[j + 1] * step
         u2 = u * u
@@ -146,24 +161,22 @@ class RodTables:
                  + (3 * u2 - 2 * u3) * f1 + (u3 - u2) * d1)
         slope = ((6 * u2 - 6 * u) * f0 + (3 * u2 - 4 * u + 1) * d0
                  + (6 * u - 6 * u2) * f1 + (3 * u2 - 2 * u) * d1) / step
-        return value, slope
+        return value + slope * extra, slope
 
     def evaluate(self, elongation, temp):
         """Return (f_rod (N), d f_rod / d y (N/m)) at y (m) and T (degC) per muscle."""
-        t = np.clip((temp - self.temp0) / self.temp_step, 0.0, self.n_temp - 1.000001)
+        t = (temp - self.temp0) / self.temp_step
+        beyond = ~(t <= self.n_temp - 1.0)  # also NaN
+        if beyond.any():
+            k = int(np.argmax(beyond))
+            table = self.tables[self.owner[k]]
+            raise RodTableError(f'muscle {k}: temperature {temp[k]:.6g} degC beyond the rod '
+                                f'table, which ends at {table.top:g} degC')
+        t = np.minimum(np.maximum(t, 0.0), self.n_temp - 1.000001)
         i = t.astype(np.int64)
         w = t - i
-        f = self.free_start + i
-        free = self.free[f] + w * (self.free[f + 1] - self.free[f])
-        x = (elongation - free - self.eta0) / self.eta_step
-        last = self.n_eta - 1
-        k = np.clip(x.astype(np.int64), 0, last - 1)
-        k = np.where(x < 0.0, 0, k)
-        u = np.clip(x - k, 0.0, 1.0)
-        extra = (np.where(x < 0.0, x, 0.0) + np.where(x >= last, x - last, 0.0)) \
-            * self.eta_step
-        j = self.start + i * self.n_eta + k
-        f_a, k_a = self._row(j, u)
-        f_b, k_b = self._row(j + self.n_eta, u)
-        slope = k_a + w * (k_b - k_a)
-        return f_a + w * (f_b - f_a) + slope * extra, slope
+        r = self.row_start + i
+        eta = elongation - (self.free[r] + w * (self.free[r + 1] - self.free[r]))
+        f_a, k_a = self._row(r, eta)
+        f_b, k_b = self._row(r + 1, eta)
+        return f_a + w * (f_b - f_a), k_a + w * (k_b - k_a)
