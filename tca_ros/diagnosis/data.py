@@ -496,10 +496,13 @@ def read_bag_record(path, sample_rate=None, tca='', mass_kg=None, load=None,
         return np.where(rel > ref[-1], t_x[-1] + rel - ref[-1], out)
 
     def hold(name, before):
-        """Return the input over each interval [t_k, t_k+1) of the grid: the time
-        average of the messages' held values (a command that arrives within an
-        interval acts for the rest of it, as the node applies it from the physics
-        step it arrives in; the record holds sample k over that interval)."""
+        """Return the input over each interval [t_k, t_k+1) of the grid.
+
+        It is the time average of the messages' held values: a command that
+        arrives within an interval acts for the rest of it, as the node applies
+        it from the physics step it arrives in; the record holds sample k over
+        that interval.
+        """
         samples = series[name]
         if not samples:
             return np.full_like(grid, before)
