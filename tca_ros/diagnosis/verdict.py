@@ -18,12 +18,6 @@ def gain(before, after):
     return 100.0 * (1.0 - after / before) if before > 0.0 else 0.0
 
 
-def heldout_rmse(record, sim, split, channels):
-    """Return {channel: RMSE} of ``sim`` against ``record`` from sample ``split`` on."""
-    return {c: float(np.sqrt(np.mean((getattr(record, c)[split:]
-                                      - getattr(sim, c)[split:]) ** 2))) for c in channels}
-
-
 def pooled_heldout_rmse(problems, sims, channels):
     """Return {channel: RMSE} over the held-out parts of all records (m, K)."""
     out = {}
