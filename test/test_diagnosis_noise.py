@@ -7,18 +7,10 @@ import pytest
 from tca_ros.diagnosis.noise import (
     ar_fit, ar_order, first_order_lag, input_terms, quantisation_sigma, quantisation_step,
     structure_test)
+from tca_ros.diagnosis.realistic import ar1
 
 RATE = 20.0  # Hz
 N = 2400  # 120 s
-
-
-def ar1(rng, n, sigma, tau, rate=RATE):
-    a = math.exp(-1.0 / (rate * tau))
-    out = np.zeros(n)
-    e = rng.standard_normal(n) * sigma * math.sqrt(1.0 - a * a)
-    for k in range(1, n):
-        out[k] = a * out[k - 1] + e[k]
-    return out
 
 
 def plant(rng):
@@ -39,7 +31,7 @@ def test_quantisation_step_is_found_on_a_lattice_only():
 
 def test_ar_order_and_coefficient_are_recovered():
     rng = np.random.default_rng(2)
-    e = ar1(rng, 4000, 1.0, 2.0)
+    e = ar1(rng, 4000, RATE, 1.0, 2.0)
     assert ar_order(e) >= 1
     phi, _ = ar_fit(e, 1)
     assert phi[0] == pytest.approx(math.exp(-1.0 / (RATE * 2.0)), abs=0.01)
@@ -52,7 +44,7 @@ def test_coloured_noise_drift_and_quantisation_are_not_structure(seed):
     # structure (the white-noise RMS test called these 5-32 sigma of "structure")
     rng = np.random.default_rng(100 + seed)
     power, predicted, rise = plant(rng)
-    noise = (ar1(rng, N, 20e-6, 2.0) + 3e-6 * rng.standard_normal(N)
+    noise = (ar1(rng, N, RATE, 20e-6, 2.0) + 3e-6 * rng.standard_normal(N)
              + rng.uniform(-2e-4, 2e-4) * np.linspace(0.0, 1.0, N))
     residual = np.round(noise / 2e-6) * 2e-6
     terms = input_terms(predicted, rise, power, RATE, 4.0)
@@ -66,7 +58,7 @@ def test_a_missing_slow_thermal_mode_is_structure_despite_coloured_noise():
     # 10 % of the response arrives through a 40 s lag the model does not have
     missing = 0.1 * 1e-4 * 80.0 * (first_order_lag(power, RATE, 40.0)
                                    - first_order_lag(power, RATE, 4.0))
-    residual = missing + ar1(rng, N, 20e-6, 2.0) + 3e-6 * rng.standard_normal(N)
+    residual = missing + ar1(rng, N, RATE, 20e-6, 2.0) + 3e-6 * rng.standard_normal(N)
     terms = input_terms(predicted, rise, power, RATE, 4.0)
     test = structure_test([(residual, terms, RATE)], swing=float(np.ptp(predicted)))
     assert test.structured, test
@@ -78,7 +70,7 @@ def test_records_are_pooled_each_with_its_own_offset_and_drift():
     segments = []
     for k in range(3):
         power, predicted, rise = plant(rng)
-        noise = ar1(rng, N, 20e-6, 2.0) + 1e-3 * k + 3e-4 * k * np.linspace(0, 1, N)
+        noise = ar1(rng, N, RATE, 20e-6, 2.0) + 1e-3 * k + 3e-4 * k * np.linspace(0, 1, N)
         segments.append((noise, input_terms(predicted, rise, power, RATE, 4.0), RATE))
     test = structure_test(segments, swing=0.01)
     assert not test.structured, test

@@ -152,15 +152,25 @@ class ForceTable:
             k = int(x)
             u, extra = x - k, 0.0
         j = i * self.n_eta + k
-        f0, f1 = self.force[j], self.force[j + 1]
-        d0, d1 = self.slope[j] * step, self.slope[j + 1] * step
-        u2 = u * u
-        u3 = u2 * u
-        value = ((2 * u3 - 3 * u2 + 1) * f0 + (u3 - 2 * u2 + u) * d0
-                 + (3 * u2 - 2 * u3) * f1 + (u3 - u2) * d1)
-        slope = ((6 * u2 - 6 * u) * f0 + (3 * u2 - 4 * u + 1) * d0
-                 + (6 * u - 6 * u2) * f1 + (3 * u2 - 2 * u) * d1) / step
-        return value + slope * extra, slope
+        return cubic_hermite(self.force, self.slope, j, u, step, extra)
+
+
+def cubic_hermite(force, slope, j, u, step, extra):
+    """Return (force N, slope N/m) of the cubic Hermite cell j at u in [0, 1].
+
+    ``force``/``slope`` are the table's node values (N, N/m), ``step`` the cell
+    width (m); ``extra`` (m) extends linearly with the edge slope beyond the
+    table. Works on floats and on NumPy arrays alike (toolkit.batch_forces).
+    """
+    f0, f1 = force[j], force[j + 1]
+    d0, d1 = slope[j] * step, slope[j + 1] * step
+    u2 = u * u
+    u3 = u2 * u
+    value = ((2 * u3 - 3 * u2 + 1) * f0 + (u3 - 2 * u2 + u) * d0
+             + (3 * u2 - 2 * u3) * f1 + (u3 - u2) * d1)
+    gradient = ((6 * u2 - 6 * u) * f0 + (3 * u2 - 4 * u + 1) * d0
+                + (6 * u - 6 * u2) * f1 + (3 * u2 - 2 * u) * d1) / step
+    return value + gradient * extra, gradient
 
 
 def _clip_force(params):

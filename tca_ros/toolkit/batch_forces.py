@@ -17,7 +17,7 @@ import numpy as np
 
 from tca_ros.model.kinetostatics import natural_length
 from tca_ros.model.rod_model import cached_rod_model
-from tca_ros.model.rod_table import RodTableError
+from tca_ros.model.rod_table import cubic_hermite, RodTableError
 
 
 class MuscleArrays:
@@ -153,15 +153,7 @@ class RodTables:
         u = np.where(below, 0.0, np.where(above, 1.0, x - k))
         extra = np.where(below, x * step, np.where(above, (x - last) * step, 0.0))
         j = self.start + (r - self.row_start) * self.n_eta + k
-        f0, f1 = self.force[j], self.force[j + 1]
-        d0, d1 = self.slope[j] * step, self.slope[j + 1] * step
-        u2 = u * u
-        u3 = u2 * u
-        value = ((2 * u3 - 3 * u2 + 1) * f0 + (u3 - 2 * u2 + u) * d0
-                 + (3 * u2 - 2 * u3) * f1 + (u3 - u2) * d1)
-        slope = ((6 * u2 - 6 * u) * f0 + (3 * u2 - 4 * u + 1) * d0
-                 + (6 * u - 6 * u2) * f1 + (3 * u2 - 2 * u) * d1) / step
-        return value + slope * extra, slope
+        return cubic_hermite(self.force, self.slope, j, u, step, extra)
 
     def evaluate(self, elongation, temp):
         """Return (f_rod (N), d f_rod / d y (N/m)) at y (m) and T (degC) per muscle."""
