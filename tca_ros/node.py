@@ -45,6 +45,7 @@ from tca_ros.node_params import (  # noqa: F401  (re-exported: the node's parame
     numbers_as_declared_types, physics_dt, physics_steps_per_tick, READ_ONLY, REBUILD,
     validate_node_values)
 from tca_ros.node_rigs import RigTopics
+from tca_ros.node_spin import spin_resiliently
 
 
 STATE_QOS = QoSProfile(depth=10)  # reliable: serves reliable and best-effort readers
@@ -710,7 +711,7 @@ def main(args=None):
         check_ros_arguments(sys.argv if args is None else args)
         init_quietly(args)
         node = TcaSimNode()
-        rclpy.spin(node)
+        spin_resiliently(node)
     except ParameterError as exc:
         log_fatal(str(exc))
         return 2

@@ -25,6 +25,7 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64
 
 from tca_ros.node_params import namespaced_name
+from tca_ros.node_spin import spin_resiliently
 
 COMMAND_QOS = QoSProfile(depth=10)
 FEEDBACK_QOS = QoSProfile(depth=10)
@@ -205,7 +206,7 @@ def main(args=None):
     node = None
     try:
         node = TcaPidNode()
-        rclpy.spin(node)
+        spin_resiliently(node)
     except ValueError as exc:  # a bad parameter: one line, no traceback
         rclpy.logging.get_logger('tca_pid').fatal(str(exc))
         return 2

@@ -84,8 +84,11 @@ def test_gauge_rigs_publish_the_tca_force(tmp_path, probe, rig):
     # rig's end (b_t / (k + k_s) = 12 ms behind) trail by < 1e-4; 3e-4 below
     assert joint.effort[0] == pytest.approx(force, rel=3e-4)
     assert joint.position[0] == pytest.approx(contraction, rel=3e-4, abs=1e-12)
+    # the same samples on 'force': the node runs on while the probe waits for the
+    # parameter reply, so either topic may drop a few of the last messages (depth 10)
     efforts = {m.effort[0] for _, m in probe.records['joint_states']}
-    assert probe.records['force'][-1][1].data in efforts  # the same samples on 'force'
+    forces = [m.data for _, m in probe.records['force']]
+    assert sum(f in efforts for f in forces) >= 0.9 * len(forces) > 0
 
 
 def test_antagonistic_node_turns_its_joint_both_ways(tmp_path, probe):
