@@ -217,7 +217,7 @@ def cmd_statics(args, out):
 
 def _conical_statics(p, temps, load, args, out):
     """Print CSV temperature,end_height (degC, m); optionally write the shapes."""
-    from tca_ros.model.rod_model import conical_shapes
+    from tca_ros.model.conical import conical_shapes
     if p.model != 'rod':
         raise InputError(f'--model = {p.model!r}: a conical TCA needs the rod model '
                          '(Love and CST assume a uniform helix)')

@@ -56,9 +56,9 @@ def cmd_linearize(args, out):
     _check(args)
     overrides = {'model': args.model} if args.model else {}
     params = load_params(checked_config(args.config), **overrides)
-    if params.model == 'rod' and params.coil.shape != 'helix':
-        raise InputError(f"--model = 'rod': its dynamics need coil.shape helix (this TCA is "
-                         f'{params.coil.shape}); use --model cst or love')
+    if params.coil.shape != 'helix':
+        raise InputError(f'--config = {args.config!r}: linearize needs a helical TCA (this '
+                         f'one is {params.coil.shape}; tca_sim simulate runs it)')
     try:
         plants = {drive: linearize(params, args.power, args.load, drive=drive)
                   for drive in ('power', 'voltage')}

@@ -12,7 +12,6 @@ turns bad input into one line naming the field, the value and what is allowed:
 - ``check_ros_arguments``: the params files and ``-p`` rules of the command line,
   read before rcl parses them (rcl answers a bad file with a multi-line error).
 """
-from dataclasses import replace
 import math
 import os
 import sys
@@ -123,27 +122,21 @@ def validate_node_values(values):
 def check_model_supports(params):
     """Raise ParameterError (one line) for a model the node cannot step for this TCA.
 
-    The rod model's dynamics table needs a helix; a conical coil runs with cst or love
-    (tca_sim statics keeps the rod model's conical shapes).
+    A conical coil needs the rod model (cst and love assume a uniform helix); its
+    dynamics read the conical rod table (model.conical_table).
     """
-    if params.model == 'rod' and params.coil.shape != 'helix':
+    if params.model != 'rod' and params.coil.shape != 'helix':
         raise ParameterError(
-            f"parameter 'model' = 'rod': the node's rod model needs coil.shape helix (this "
-            f'TCA is {params.coil.shape}); set model to cst or love')
+            f"parameter 'model' = {params.model!r}: a {params.coil.shape} TCA needs the rod "
+            'model (cst and love assume a uniform helix); set model to rod')
 
 
 def model_for_node(params):
-    """Return (params, warning): a conical TCA with model rod falls back to cst.
+    """Return (params, warning) for the node: every shipped TCA runs as configured.
 
-    The shipped config/conical.yaml says ``model: rod`` for ``tca_sim statics`` (the
-    conical rod shapes); the node steps it with cst and says so in one warning line.
+    Kept for callers of the former conical fallback to cst; the warning is empty.
     """
-    try:
-        check_model_supports(params)
-    except ParameterError:
-        warning = (f"model 'rod' does not step a {params.coil.shape} coil in the node: "
-                   "running model 'cst' (set model:=cst or model:=love to choose)")
-        return replace(params, model='cst'), warning
+    check_model_supports(params)
     return params, ''
 
 

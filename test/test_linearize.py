@@ -206,7 +206,7 @@ def test_cli_linearize_prints_and_writes(tmp_path, free_stroke):
     (['--power', '-1'], '--power = -1 W'),
     (['--power', '3', '--load', '0', '--model', 'cst'], 'coils touch'),
     (['--power', '1', '--load', '1e9'], '--load = 1e+09 N'),
-    (['--power', '1', '--config', 'conical'], 'use --model cst or love')])
+    (['--power', '1', '--config', 'conical'], 'linearize needs a helical TCA')])
 def test_cli_linearize_bad_input_is_one_line_exit_2(capsys, args, needle):
     assert main(['linearize', *args]) == 2
     err = capsys.readouterr().err

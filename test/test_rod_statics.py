@@ -193,3 +193,19 @@ def test_independent_collocation_agrees(loaded_free_stroke, free_stroke):
     # to ~0.01 rad at solve_bvp's tol 1e-3.
     assert a[2] == pytest.approx(b[2], abs=1e-6)
     assert np.hypot(a[0] - b[0], a[1] - b[1]) < 1e-5
+
+
+def test_height_control_returns_the_force_that_holds_the_end_there(free_stroke):
+    """Held at the height a force-controlled solve reaches, the end needs that force."""
+    c = free_stroke.coil
+    ref = helix_reference(c.radius, c.pitch_angle, 0.01)
+    K = stiffness_vector(free_stroke, 25.0, 0.0)
+    load = 0.05  # N, a hanging weight along -Z through the fiber's end point
+    loaded = solve_rod_statics(ref, K, end_force=[0.0, 0.0, -load], n_steps=80)
+    held = solve_rod_statics(ref, K, n_steps=80, initial=solve_rod_statics(ref, K, n_steps=80),
+                             end_height=loaded.positions[2, -1])
+    assert loaded.success and held.success
+    np.testing.assert_allclose(held.end_force(), [0.0, 0.0, -load], atol=1e-9 * load + 1e-12)
+    np.testing.assert_allclose(held.positions, loaded.positions, atol=1e-9)
+    with pytest.raises(ValueError, match='end_height'):
+        solve_rod_statics(ref, K, end_height=0.0, end_load_offset='origin')

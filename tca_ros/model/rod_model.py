@@ -31,11 +31,7 @@ from tca_ros.model.rod_table import build_table, helix_elongation  # noqa: F401 
 from tca_ros.model.rod_table import RodTableError  # noqa: F401 (raised by the table)
 from tca_ros.rod.helix import helix_centreline
 from tca_ros.rod.reference import conical_spiral_reference, helix_reference
-from tca_ros.rod.reference import integrate_strains
 from tca_ros.rod.statics import solve_continuation
-
-LOAD_RAMP_STEPS = 8  # load continuation steps for a loaded conical TCA
-CONICAL_STEPS_PER_TURN = 128  # second-order mesh: shape error ~3e-4 of the radius
 
 
 class RodKinetostatics(KinetostaticModel):
@@ -148,8 +144,8 @@ def centreline(params, elongation, temperature, n_points=200):
 
     Helix: the exact uniform helix at the tension f_rod(y, T), on the global Z axis,
     from the clamp at z = 0 downwards (z = -l at the free end), for display (RViz).
-    Other shapes (conical): the unloaded heated reference integrated from the clamp
-    (the no-load equilibrium); ``elongation`` is then ignored.
+    Conical: the hanging cone from the rod branches of its table (conical_table),
+    apex clamp at the origin.
 
     Parameters
     ----------
@@ -170,8 +166,10 @@ def centreline(params, elongation, temperature, n_points=200):
     if int(n_points) < 2:
         raise ValueError(f'n_points = {n_points!r}: must be >= 2')
     if params.coil.shape != 'helix':
-        ref = rod_reference(params, temperature)
-        return integrate_strains(ref, np.linspace(0.0, ref.length, int(n_points)))[0]
+        from tca_ros.model.conical_table import cached_conical_model
+        shape = cached_conical_model(params).centreline(elongation, temperature)
+        pick = np.linspace(0.0, shape.shape[1] - 1.0, int(n_points))
+        return np.array([np.interp(pick, np.arange(shape.shape[1]), row) for row in shape])
     model = cached_rod_model(params)
     force = model.tension(elongation, temperature)
     eq = _helix_state(params, temperature, force)
@@ -243,69 +241,3 @@ def solution_elongation(params, solution):
     """Return y (m) of a helical BVP solution: axial drop of the free end minus l*."""
     return float(solution.positions[2, 0] - solution.positions[2, -1]) - _natural_length(
         params)
-
-
-def conical_shapes(params, temperatures, load=0.0, n_steps=None):
-    """Return the 3-D centreline of a (conical) TCA per temperature.
-
-    The rod BVP is solved at each temperature in order (Algorithm 1, warm starts).
-    With no load (the paper's case, W(l_t) = 0, Appendix C) it is the heated
-    reference (40) integrated from the clamp (41). No coil contact is modelled: coils
-    may pass each other, as in Fig. 13.
-
-    Parameters
-    ----------
-    params : TcaParams
-        Any shape ('conical' for the paper's Fig. 13).
-    temperatures : sequence of float
-        T (degC).
-    load : float
-        Dead load (N) on the fiber's end point along -Z (e.g. an end marker's weight).
-    n_steps : int, optional
-        Intervals along the fiber (default CONICAL_STEPS_PER_TURN per turn).
-
-    Returns
-    -------
-    list of (s, xyz)
-        s (n,) arc length (m), xyz (3, n) positions (m), global Z up the cone axis;
-        the clamp is at the origin.
-
-    Raises
-    ------
-    RuntimeError
-        If a solve fails (it is a linear problem at no load; never expected).
-    """
-    temps = [float(t) for t in temperatures]
-    if not temps:
-        return []
-    if n_steps is None:
-        turns = rod_reference(params, temps[0]).n_coils
-        n_steps = int(max(64, math.ceil(CONICAL_STEPS_PER_TURN * turns)))
-    load = float(load)
-
-    def problem(temp):
-        return dict(reference=rod_reference(params, temp),
-                    stiffness=stiffness_vector(params, temp, load),
-                    end_force=np.array([0.0, 0.0, -load]))
-    start = None
-    if load != 0.0:
-        # Ramp the load at the first temperature: the wide coils are compliant.
-        ramp = solve_continuation(
-            lambda f: dict(reference=rod_reference(params, temps[0]),
-                           stiffness=stiffness_vector(params, temps[0], f),
-                           end_force=np.array([0.0, 0.0, -f])),
-            list(np.linspace(0.0, load, LOAD_RAMP_STEPS + 1)), n_steps=n_steps)
-        start = ramp[-1] if ramp[-1].success else None
-    out = []
-    sols = solve_continuation(problem, temps, n_steps=n_steps, initial=start)
-    for temp, sol in zip(temps, sols):
-        if not sol.success:
-            raise RuntimeError(f'conical shape at {temp:g} degC: {sol.message}')
-        out.append((sol.s, sol.positions))
-    return out
-
-
-def conical_end_height(params, temperatures, load=0.0, n_steps=None):
-    """Return the free end's vertical position z(l_t) (m) per temperature (Fig. 13b)."""
-    shapes = conical_shapes(params, temperatures, load, n_steps)
-    return np.array([xyz[2, -1] for _, xyz in shapes])

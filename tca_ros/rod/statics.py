@@ -22,6 +22,7 @@ References
 [1] Sun et al., IEEE T-RO 2022, Eqs. (6)-(8), (16), (17), (32), Algorithm 1.
 """
 from dataclasses import dataclass
+import functools
 
 import numpy as np
 from scipy.linalg.lapack import dgbtrf, dgbtrs
@@ -89,6 +90,10 @@ class RodSolution:
         u_ref, v_ref = reference.strain(self.s)
         return u_ref + kinv[:3, None] * self.m, v_ref + kinv[3:, None] * self.n
 
+    def end_force(self):
+        """Return the external force on the free end (N), global frame: R(l_t) n(l_t)."""
+        return self.frames[:, :, -1] @ self.n[:, -1]
+
     def state(self):
         """Return the node states stacked as (n, 13): p, h, m, n."""
         return np.concatenate([self.positions, self.quaternions, self.m, self.n]).T
@@ -113,12 +118,35 @@ def _step_map(h0, m0, n0, u, v, ds, R=None):
     return h1, dp, m1, n1, Q, E, d, R
 
 
+@functools.lru_cache(maxsize=16)
+def _band_pattern(N):
+    """Return the Jacobian's sparsity and LAPACK band layout for N intervals (cached)."""
+    k = np.arange(N)
+    r = 7 + 13 * k[:, None, None] + np.arange(13)[None, :, None]
+    c = 13 * k[:, None, None] + np.arange(26)[None, None, :]
+    r_step = np.broadcast_to(r, (N, 13, 26))
+    c_step = np.broadcast_to(c, (N, 13, 26))
+    r_end = np.broadcast_to(7 + 13 * N + np.arange(6)[:, None], (6, 13))
+    c_end = np.broadcast_to(13 * N + np.arange(13)[None, :], (6, 13))
+    rows = np.concatenate([np.arange(7), r_step.ravel(), r_end.ravel()])
+    cols = np.concatenate([np.arange(7), c_step.ravel(), c_end.ravel()])
+    offset = cols - rows
+    lower = int(max(0, -offset.min()))
+    upper = int(max(0, offset.max()))
+    # LAPACK band storage for gbtrf: row lower + upper + i - j of column j (the top
+    # ``lower`` rows are workspace for the fill-in of partial pivoting).
+    band_index = (lower + upper + rows - cols, cols)
+    band_flat = np.ravel_multi_index(band_index, (2 * lower + upper + 1, 13 * (N + 1)))
+    return rows, cols, lower, upper, band_index, band_flat
+
+
 class _Problem:
     """Discretized BVP: residual and sparse Jacobian on a fixed mesh."""
 
     def __init__(self, reference, stiffness, end_force, end_moment, n_steps,
-                 distributed_wrench, end_load_offset=(0.0, 0.0, 0.0)):
+                 distributed_wrench, end_load_offset=(0.0, 0.0, 0.0), end_height=None):
         self.ref = reference
+        self.end_height = None if end_height is None else float(end_height)
         self.offset = (None if isinstance(end_load_offset, str)
                        else np.asarray(end_load_offset, dtype=float))
         self.K = np.asarray(stiffness, dtype=float)
@@ -145,37 +173,28 @@ class _Problem:
         self.scale = np.concatenate([np.full(3, self.length_scale), np.ones(4),
                                      self.K[:3] * max(u_scale, 1.0 / reference.length),
                                      self.K[3:]])
+        self.end_scale = self.scale[7:].copy()
+        if self.end_height is not None:
+            self.end_scale[5] = self.length_scale  # the last end row is a height (m)
         self._pattern()
 
     def _pattern(self):
-        N = self.N
-        rows0 = np.arange(7)
-        cols0 = np.arange(7)
-        k = np.arange(N)
-        r = 7 + 13 * k[:, None, None] + np.arange(13)[None, :, None]
-        c = 13 * k[:, None, None] + np.arange(26)[None, None, :]
-        r_step = np.broadcast_to(r, (N, 13, 26))
-        c_step = np.broadcast_to(c, (N, 13, 26))
-        r_end = np.broadcast_to(7 + 13 * N + np.arange(6)[:, None], (6, 13))
-        c_end = np.broadcast_to(13 * N + np.arange(13)[None, :], (6, 13))
-        self.rows = np.concatenate([rows0, r_step.ravel(), r_end.ravel()])
-        self.cols = np.concatenate([cols0, c_step.ravel(), c_end.ravel()])
-        offset = self.cols - self.rows
-        self.lower = int(max(0, -offset.min()))
-        self.upper = int(max(0, offset.max()))
-        # LAPACK band storage for gbtrf: row lower + upper + i - j of column j (the top
-        # ``lower`` rows are workspace for the fill-in of partial pivoting).
-        self.band_index = (self.lower + self.upper + self.rows - self.cols, self.cols)
-        self.band_flat = np.ravel_multi_index(
-            self.band_index, (2 * self.lower + self.upper + 1, 13 * (N + 1)))
+        (self.rows, self.cols, self.lower, self.upper, self.band_index,
+         self.band_flat) = _band_pattern(self.N)
 
     def _end_residual(self, x):
         R = rotation_from_quaternion(x[_H])
+        if self.end_height is not None:
+            # Height control: a vertical end force of unknown size (the internal force
+            # at the end, n(l_t)) holds the end at Z = end_height; no horizontal force.
+            m_end = R.T @ self.M + _cross(self.offset, x[_N])
+            force = R @ x[_N]
+            return np.concatenate([x[_M] - m_end, force[:2], [x[2] - self.end_height]])
         n_end = R.T @ self.F
         if self.offset is None:  # Eq. (17) as printed: W_e^g about the global origin
             m_end = R.T @ (self.M - np.cross(x[_P], self.F))
         else:  # force applied at a point fixed to the end section, plus a couple
-            m_end = R.T @ self.M + np.cross(self.offset, n_end)
+            m_end = R.T @ self.M + _cross(self.offset, n_end)
         return np.concatenate([x[_M] - m_end, x[_N] - n_end])
 
     def residual(self, X, want_jacobian=False):
@@ -272,7 +291,7 @@ class _Problem:
         """Return the residual made dimensionless per state component (strain-like)."""
         body = res[7:7 + 13 * self.N].reshape(self.N, 13) / self.scale
         return np.concatenate([res[:7] / self.scale[:7], body.ravel(),
-                               res[-6:] / self.scale[7:]])
+                               res[-6:] / self.end_scale])
 
     def scaled_norm(self, res):
         """Return the max norm of the scaled residual (the convergence test)."""
@@ -359,7 +378,7 @@ def default_steps(reference, steps_per_coil=8):
 def solve_rod_statics(reference, stiffness, end_force=(0.0, 0.0, 0.0),
                       end_moment=(0.0, 0.0, 0.0), end_load_offset=(0.0, 0.0, 0.0),
                       n_steps=None, initial=None, distributed_wrench=None, tol=1e-10,
-                      max_iter=30):
+                      max_iter=30, end_height=None):
     """Solve the Cosserat rod BVP, Eqs. (6)-(8) with the clamp (16) and end wrench (17).
 
         p' = R v, h' = Omega(u) h / 2, W' = ad_xi^T W - W_bar_e, W = K (xi - xi^h)
@@ -391,6 +410,11 @@ def solve_rod_statics(reference, stiffness, end_force=(0.0, 0.0, 0.0),
         Newton tolerance on the scaled step and residual (-), strain-like units.
     max_iter : int
         Newton iteration limit.
+    end_height : float, optional
+        Height control (m): hold the free end at global Z = end_height by a vertical
+        end force whose size is solved for (``end_force`` is then ignored; read the
+        force as :meth:`RodSolution.end_force`). Follows a branch through the limit
+        points of the load-controlled problem (docs/rod.md, conical TCA).
 
     Returns
     -------
@@ -403,6 +427,10 @@ def solve_rod_statics(reference, stiffness, end_force=(0.0, 0.0, 0.0),
     for name, val in (('end_force', end_force), ('end_moment', end_moment)):
         if np.shape(val) != (3,) or not np.all(np.isfinite(val)):
             raise ValueError(f'{name} = {val!r}: must be 3 finite values')
+    if end_height is not None and (isinstance(end_load_offset, str)
+                                   or not np.isfinite(end_height)):
+        raise ValueError(f'end_height = {end_height!r}: must be finite, with the load on '
+                         'a point of the end section (not end_load_offset="origin")')
     if isinstance(end_load_offset, str):
         if end_load_offset != 'origin':
             raise ValueError(f'end_load_offset = {end_load_offset!r}: must be 3 values '
@@ -414,7 +442,7 @@ def solve_rod_statics(reference, stiffness, end_force=(0.0, 0.0, 0.0),
     if int(n_steps) < 2:
         raise ValueError(f'n_steps = {n_steps!r}: must be >= 2')
     prob = _Problem(reference, K, end_force, end_moment, int(n_steps), distributed_wrench,
-                    end_load_offset)
+                    end_load_offset, end_height)
     X = None
     guess = helix_initial_state(reference, K, end_force, end_moment, prob.s)
     if isinstance(initial, RodSolution) and initial.s.size == n_steps + 1:
