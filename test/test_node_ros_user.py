@@ -156,23 +156,27 @@ def test_signals_end_the_node_cleanly_every_time(tmp_path, sig):
         probe.close()
 
 
-def test_shipped_conical_config_starts_with_a_warning(tmp_path):
-    node = NodeProcess(module_command('tca_ros.node', ['--params-file', str(CONICAL)]),
+def test_shipped_conical_config_runs_the_rod_model_and_publishes_the_hanging_cone(tmp_path):
+    """config/conical.yaml steps the conical rod table (no fallback, no warning); the
+    Marker is the cone hanging below its apex clamp; cst is refused in one line."""
+    node = NodeProcess(module_command('tca_ros.node', ['--params-file', str(CONICAL), '-p',
+                                                       'shape_rate:=10.0']),
                        tmp_path / 'conical.log')
     probe = Probe()
     try:
-        node.wait_for_log('tca node ready', timeout=60.0)
-        lines = [ln for ln in node.log().splitlines() if 'WARN' in ln]
-        assert len(lines) == 1 and "model 'rod' does not step a conical coil in the node: " \
-            "running model 'cst'" in lines[0], node.log()
-        assert 'model cst' in node.log()
-        assert _get(probe, 'tca', 'model')[0].string_value == 'cst'
-        result = probe.set_params('tca', model='rod')[0]
+        shapes = probe.record('shape', Marker)
+        node.wait_for_log('tca node ready', timeout=120.0)
+        assert 'WARN' not in node.log() and 'model rod' in node.log(), node.log()
+        assert _get(probe, 'tca', 'model')[0].string_value == 'rod'
+        assert probe.spin_until(lambda: shapes, 10.0), node.log()
+        points = np.array([[p.x, p.y, p.z] for p in shapes[-1][1].points])
+        assert np.allclose(points[0], 0.0, atol=1e-9)  # the apex clamp
+        assert -0.066 < points[-1, 2] < -0.060  # 63 mm below it, unloaded at 25 degC
+        assert np.hypot(points[-1, 0], points[-1, 1]) > 0.005  # the wide end coil
+        result = probe.set_params('tca', model='cst')[0]
         assert not result.successful
-        assert result.reason == ("parameter 'model' = 'rod': the node's rod model needs "
-                                 'coil.shape helix (this TCA is conical); set model to cst '
-                                 'or love')
-        assert probe.set_params('tca', model='love')[0].successful
+        assert result.reason == ("parameter 'model' = 'cst': a conical TCA needs the rod "
+                                 'model (cst and love assume a uniform helix); set model to rod')
     finally:
         probe.close()
         assert node.stop() == 0, node.log()
