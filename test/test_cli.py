@@ -90,7 +90,7 @@ def test_conical_statics_end_passes_the_clamp_and_writes_shapes(tmp_path):
     rows = [line.split(',') for line in text.strip().splitlines()]
     assert rows[0] == ['temperature', 'end_height']
     heights = [float(r[1]) for r in rows[1:]]
-    assert len(heights) == 3 and heights[0] > 0.05 and heights[-1] < 0.0  # dual-side stroke
+    assert len(heights) == 3 and heights[0] < -0.05 and heights[-1] > 0.0  # dual-side stroke
     lines = shape.read_text().splitlines()
     assert lines[0] == 'temperature,s,x,y,z'
     assert {float(line.split(',')[0]) for line in lines[1:]} == {25.0, 92.5, 160.0}
