@@ -47,8 +47,8 @@ def test_the_weight_hangs_below_the_apex_clamp(conical, loaded_25):
     assert -0.064 < free[0] < -0.062  # unloaded: 63 mm below the clamp
     assert free[1] > 0.08  # heated, the coils pass each other: the end is above it
     sol = loaded_25.solution
-    force = HANGING @ sol.end_force()  # what the end carries, world frame
-    np.testing.assert_allclose(force, [0.0, 0.0, TWO_GRAMS], atol=1e-9)  # holds the weight up
+    force = HANGING @ sol.end_force()  # the external force on the end, world frame
+    np.testing.assert_allclose(force, [0.0, 0.0, -TWO_GRAMS], atol=1e-8)  # the weight, down
     shape = HANGING @ sol.positions
     np.testing.assert_allclose(shape[:, 0], 0.0, atol=1e-12)  # the apex clamp
     assert shape[2, -1] == pytest.approx(-loaded_25.drop)
@@ -108,4 +108,4 @@ def test_figure_numbers_are_the_models(conical, loaded_25):
     for k in range(time.size):
         assert dynamic[k][0] == pytest.approx(time[k])
         assert dynamic[k][1] == pytest.approx(temp[k], abs=1e-6)
-        assert dynamic[k][2] == pytest.approx(height[k], abs=1e-9)
+        assert dynamic[k][2] == pytest.approx(height[k], abs=1e-8)  # %.6e in the CSV
