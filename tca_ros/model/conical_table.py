@@ -75,8 +75,10 @@ def build_row(params, temperature, natural_drop):
 
 
 def _shape_at(points, drops, drop):
-    """Return the world-frame centreline (3, SHAPE_POINTS) at ``drop`` (m), interpolated
-    linearly between the two branch equilibria around it (a display shape)."""
+    """Return the world-frame centreline (3, SHAPE_POINTS) (m) at ``drop`` (m).
+
+    Interpolated linearly between the two branch equilibria around it (a display shape).
+    """
     k = int(np.clip(np.searchsorted(drops, drop) - 1, 0, len(points) - 2))
     w = (drop - drops[k]) / (drops[k + 1] - drops[k])
     a, b = points[k].solution.positions, points[k + 1].solution.positions
@@ -170,7 +172,7 @@ class ConicalTable:
         return f_a + w * (f_b - f_a), k_a + w * (k_b - k_a)
 
     def centreline(self, elongation, temperature):
-        """Return the world-frame centreline (3, SHAPE_POINTS) (m) at (y, T), for display.
+        """Return the world-frame shape (3, SHAPE_POINTS) (m) at y (m) and T (degC).
 
         The nearest row's kept centrelines, interpolated linearly in y.
         """
@@ -226,8 +228,10 @@ class ConicalKinetostatics(KinetostaticModel):
         return self._table.temp0, self._table.top
 
     def tension(self, elongation, temperature, force_guess=None):
-        """Return f_rod (N) at elongation y (m) and T (degC), Eq. (18); no fixed point
-        needed (the rows already hold the moduli at F, Eq. (11))."""
+        """Return f_rod (N) at elongation y (m) and T (degC), Eq. (18).
+
+        No fixed point is needed: the rows hold the moduli at F (Eq. (11)).
+        """
         return self._table.evaluate(elongation, temperature)[0]
 
     def stiffness(self, elongation, temperature):
@@ -275,7 +279,7 @@ class ConicalKinetostatics(KinetostaticModel):
         return self.equilibrium_elongation(load, temperature, guess)
 
     def centreline(self, elongation, temperature):
-        """Return the world-frame centreline (3, SHAPE_POINTS) (m) at (y, T)."""
+        """Return the world-frame shape (3, SHAPE_POINTS) (m) at y (m), T (degC)."""
         return self._table.centreline(elongation, temperature)
 
 
