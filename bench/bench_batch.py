@@ -20,7 +20,7 @@ os.environ.setdefault('OPENBLAS_NUM_THREADS', '1')
 import numpy as np  # noqa: E402
 
 from tca_ros.model.dynamics import TcaSimulator  # noqa: E402
-from tca_ros.model.kinetostatics import make_kinetostatic_model  # noqa: E402
+from tca_ros.model.kinetostatic_models import make_kinetostatic_model  # noqa: E402
 from tca_ros.model.params import load_params  # noqa: E402
 from tca_ros.toolkit.batch import BatchSimulator  # noqa: E402
 

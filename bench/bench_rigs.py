@@ -55,7 +55,7 @@ def main(argv=None):
 
 def bench_conical(seconds):
     """Print the conical TCA's rigs (rod table) beside the free-stroke rod model."""
-    from tca_ros.model.kinetostatics import make_kinetostatic_model
+    from tca_ros.model.kinetostatic_models import make_kinetostatic_model
     start = time.perf_counter()
     rows = make_kinetostatic_model(load_params('conical')).table.build_all()
     print(f'# conical rod table: {rows} rows ready in {time.perf_counter() - start:.1f} s '

@@ -18,7 +18,8 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from tca_ros.model.dynamics import static_displacement  # noqa: E402
-from tca_ros.model.kinetostatics import contact_elongation, make_kinetostatic_model  # noqa
+from tca_ros.model.kinetostatic_models import make_kinetostatic_model  # noqa: E402
+from tca_ros.model.kinetostatics import contact_elongation  # noqa
 from tca_ros.model.params import GRAVITY, load_params  # noqa: E402
 from tca_ros.model.reference_state import crept_under  # noqa: E402
 

@@ -16,7 +16,7 @@ import os
 
 import numpy as np
 
-from tca_ros.model.kinetostatics import make_kinetostatic_model
+from tca_ros.model.kinetostatic_models import make_kinetostatic_model
 from tca_ros.model.params import load_params
 from tca_ros.model.rig_simulation import simulate_rig
 from tca_ros.model.rig_statics import antagonistic_rest_angle, isometric_force

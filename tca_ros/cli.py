@@ -15,9 +15,9 @@ import warnings
 
 import numpy as np
 
-from tca_ros.cli_common import checked_config, InputError
+from tca_ros.cli_common import checked_config, finite_float, InputError
 from tca_ros.diagnosis.data import ABSOLUTE_ZERO_DEGC, clip, DataError, MAX_LOAD_N, \
-    MAX_POWER_W, NUMBER, parse_number, read_text_lines
+    MAX_POWER_W, parse_number, read_text_lines
 from tca_ros.model.params import GRAVITY, load_params, MODELS, ParameterError, RIG_MODES
 
 EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT = 0, 1, 2
@@ -46,17 +46,6 @@ class CliParser(argparse.ArgumentParser):
         """Print ``prog: error: message`` on one line (cut) and exit with status 2."""
         line = ' '.join(str(message).split())
         self.exit(EXIT_BAD_INPUT, f'{self.prog}: error: {clip(line, MESSAGE_CHARS)}\n')
-
-
-def finite_float(text):
-    """Return ``text`` as a finite float (argparse type); ASCII decimals only."""
-    if not NUMBER.fullmatch(text.strip()):
-        raise argparse.ArgumentTypeError(f'{clip(text)!r} is not a finite number '
-                                         '(ASCII decimal, e.g. 2.5e-3)')
-    value = float(text)
-    if not math.isfinite(value):
-        raise argparse.ArgumentTypeError(f'{clip(text)!r} is beyond +-1.8e308')
-    return value
 
 
 def count(text):

@@ -3,9 +3,11 @@
 Kept apart from cli.py so the command modules (cli_calibrate, ...) that cli.py
 registers need not import cli.py back.
 """
+import argparse
+import math
 import os
 
-from tca_ros.diagnosis.data import clip
+from tca_ros.diagnosis.data import clip, NUMBER
 from tca_ros.model.params import resolve_config
 
 MAX_CONFIG_BYTES = 1 << 20  # a params file is a few kB; refuse to parse megabytes of YAML
@@ -25,3 +27,14 @@ def checked_config(name_or_path, option='--config'):
         raise InputError(f'{option} = {clip(name_or_path)!r}: {size} bytes; a params file '
                          f'is at most {MAX_CONFIG_BYTES} bytes')
     return path
+
+
+def finite_float(text):
+    """Return ``text`` as a finite float (argparse type); ASCII decimals only."""
+    if not NUMBER.fullmatch(text.strip()):
+        raise argparse.ArgumentTypeError(f'{clip(text)!r} is not a finite number '
+                                         '(ASCII decimal, e.g. 2.5e-3)')
+    value = float(text)
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f'{clip(text)!r} is beyond +-1.8e308')
+    return value

@@ -9,7 +9,7 @@ import json
 import math
 import os
 
-from tca_ros.cli_common import checked_config, InputError
+from tca_ros.cli_common import checked_config, finite_float, InputError
 
 CHANNELS = (('power', 'displacement'), ('power', 'temperature'), ('power', 'resistance'),
             ('load', 'displacement'), ('voltage', 'displacement'))
@@ -18,7 +18,6 @@ THERMAL_POLE_MATCH = 1e-6  # relative distance at which a pole is A[0, 0] itself
 
 def add_parser(subparsers):
     """Register ``linearize`` on the `tca_sim` subparsers."""
-    from tca_ros.cli import finite_float
     from tca_ros.model.params import MODELS
     fmt = argparse.ArgumentDefaultsHelpFormatter
     sp = subparsers.add_parser(

@@ -32,11 +32,11 @@ from std_srvs.srv import Trigger
 from visualization_msgs.msg import Marker
 
 from tca_ros.model.dynamics import StabilityError
+from tca_ros.model.kinetostatic_models import centreline as rod_centreline
 from tca_ros.model.kinetostatics import fixed_coil_centreline
 from tca_ros.model.params import from_flat_dict, ParameterError, SCHEMA, SPECS
 from tca_ros.model.resistance import power_from_voltage
 from tca_ros.model.rigs import start_load
-from tca_ros.model.rod_model import centreline as rod_centreline
 from tca_ros.node_diagnostics import DiagnosticsPublisher, MuscleState
 from tca_ros.node_params import (  # noqa: F401  (re-exported: the node's parameter API)
     build_simulator, check_model_supports, check_ros_arguments, check_unknown_overrides,

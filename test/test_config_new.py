@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 
 from tca_ros.cli import main
-from tca_ros.model.kinetostatics import make_kinetostatic_model, natural_length
+from tca_ros.model.kinetostatic_models import make_kinetostatic_model
+from tca_ros.model.kinetostatics import natural_length
 from tca_ros.model.muscle import (coil_count, contact_pitch_angle, describe_muscle,
                                   loaded_length_at_ambient, MuscleError, MuscleSpec,
                                   thread_presets_path)

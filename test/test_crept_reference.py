@@ -13,7 +13,8 @@ import pytest
 
 from tca_ros.cli import main
 from tca_ros.model.dynamics import static_displacement
-from tca_ros.model.kinetostatics import contact_elongation, make_kinetostatic_model
+from tca_ros.model.kinetostatic_models import make_kinetostatic_model
+from tca_ros.model.kinetostatics import contact_elongation
 from tca_ros.model.params import dump_params, GRAVITY, ParameterError, to_flat_dict
 from tca_ros.model.reference_state import crept_pitch_angle, crept_under
 

@@ -6,6 +6,7 @@ import pytest
 
 from tca_ros.model import kinetostatics as ks
 from tca_ros.model.dynamics import static_displacement
+from tca_ros.model.kinetostatic_models import centreline, make_kinetostatic_model
 from tca_ros.model.moduli import section_stiffness
 
 G = 9.81
@@ -18,7 +19,7 @@ G = 9.81
 def test_small_load_stiffness_matches_cross_checks(config, k_cst, k_love, request):
     p = request.getfixturevalue(config)
     for name, expected in (('cst', k_cst), ('love', k_love)):
-        model = ks.make_kinetostatic_model(p, name)
+        model = make_kinetostatic_model(p, name)
         y = model.equilibrium_elongation(1e-4, 25.0)
         assert model.stiffness(y, 25.0) == pytest.approx(expected, rel=2e-3), name
 
@@ -37,7 +38,7 @@ def test_linearised_love_is_rotation_locked_kirchhoff(free_stroke):
 
 def test_zero_load_at_ambient_is_the_natural_length(free_stroke):
     for name in ('cst', 'love'):
-        model = ks.make_kinetostatic_model(free_stroke, name)
+        model = make_kinetostatic_model(free_stroke, name)
         assert model.tension(0.0, 25.0) == pytest.approx(0.0, abs=1e-12)
         assert model.natural_length == pytest.approx(0.175 * math.sin(math.radians(22.42)))
 
@@ -118,11 +119,10 @@ def test_contact_elongation(free_stroke):
 
 def test_unknown_model_is_rejected(free_stroke):
     with pytest.raises(ValueError, match="model = 'spring'"):
-        ks.make_kinetostatic_model(free_stroke, 'spring')
+        make_kinetostatic_model(free_stroke, 'spring')
 
 
 def test_fixed_coil_centreline_is_the_reference_helix_at_rest(free_stroke):
-    from tca_ros.model.rod_model import centreline
     fixed = ks.fixed_coil_centreline(free_stroke, 0.0, 400)
     exact = centreline(free_stroke, 0.0, 25.0, 400)
     # same helix, same handedness and clamp convention (to 1 um: the exact one is a solve)

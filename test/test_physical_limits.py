@@ -16,6 +16,7 @@ import pytest
 from tca_ros.cli import main
 from tca_ros.model import kinetostatics as ks
 from tca_ros.model.dynamics import static_displacement, TcaSimulator
+from tca_ros.model.kinetostatic_models import make_kinetostatic_model
 from tca_ros.model.limits import MELT_TEMPERATURE_DEGC, ThreadBreakError
 from tca_ros.model.limits import touching_pitch_angle
 from tca_ros.model.params import GRAVITY, load_params, ParameterError, shipped_configs, SPECS
@@ -134,7 +135,7 @@ def test_without_the_measured_stop_the_coils_stop_where_they_touch(free_stroke):
         0.175 * math.sin(alpha_s))
     assert stop < ks.contact_elongation(free_stroke)  # below the measured 12 deg stop
     for model in ('rod', 'cst'):  # at 300 degC the free coil would invert
-        km = ks.make_kinetostatic_model(off, model)
+        km = make_kinetostatic_model(off, model)
         assert km.equilibrium_elongation(0.0196, 300.0) < stop  # the unbounded solve
         assert ks.static_elongation(km, 0.0196, 300.0) == stop
 

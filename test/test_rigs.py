@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from tca_ros.model.dynamics import StabilityError, static_displacement, TcaSimulator
-from tca_ros.model.kinetostatics import make_kinetostatic_model
+from tca_ros.model.kinetostatic_models import make_kinetostatic_model
 from tca_ros.model.params import load_params, ParameterError
 from tca_ros.model.rig_simulation import RIG_COLUMNS, simulate_rig
 from tca_ros.model.rig_statics import antagonistic_rest_angle, isometric_force

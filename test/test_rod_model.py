@@ -5,9 +5,8 @@ import numpy as np
 import pytest
 
 from tca_ros.model.conical import conical_end_height, conical_shapes
-from tca_ros.model.kinetostatics import make_kinetostatic_model
+from tca_ros.model.kinetostatic_models import centreline, make_kinetostatic_model
 from tca_ros.model.params import load_params
-from tca_ros.model.rod_model import centreline
 from tca_ros.model.rod_model import rod_statics_sweep, RodKinetostatics
 from tca_ros.model.rod_model import solution_elongation
 

@@ -10,7 +10,8 @@ from dataclasses import dataclass
 import math
 
 from tca_ros.model.effects import CATALOGUE, true_ambient
-from tca_ros.model.kinetostatics import loaded_length, make_kinetostatic_model
+from tca_ros.model.kinetostatic_models import make_kinetostatic_model
+from tca_ros.model.kinetostatics import loaded_length
 from tca_ros.model.kinetostatics import pitch_angle_of_length
 from tca_ros.model.params import SPECS
 

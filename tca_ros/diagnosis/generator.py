@@ -16,7 +16,8 @@ from tca_ros.diagnosis.data import Record
 from tca_ros.diagnosis.fitting import TRAIN_FRACTION
 from tca_ros.model.dynamics import simulate
 from tca_ros.model.effects import CATALOGUE, true_ambient
-from tca_ros.model.kinetostatics import loaded_length, make_kinetostatic_model
+from tca_ros.model.kinetostatic_models import make_kinetostatic_model
+from tca_ros.model.kinetostatics import loaded_length
 from tca_ros.model.kinetostatics import pitch_angle_of_length
 from tca_ros.model.params import GRAVITY, load_params
 

@@ -287,7 +287,7 @@ def _candidates(records, params, model, problems, nominals):
 def _calibrate_training_part(records, params_of, model, fraction, supply, progress):
     """Return (Calibration or None, [params per record], note): nominal fitted on training."""
     from tca_ros.diagnosis.calibration import calibrate, CalibrationError, record_params
-    from tca_ros.model.kinetostatics import make_kinetostatic_model
+    from tca_ros.model.kinetostatic_models import make_kinetostatic_model
     from tca_ros.model.quasistatic import QuasiStaticUnsupported
     heads = [decimated(leading_part(r, fraction), CALIBRATION_RATE_HZ) for r in records]
     try:

@@ -35,8 +35,8 @@ import math
 import numpy as np
 
 from tca_ros.model import effects as fx
+from tca_ros.model.kinetostatic_models import make_kinetostatic_model
 from tca_ros.model.kinetostatics import contact_elongation, static_elongation
-from tca_ros.model.kinetostatics import make_kinetostatic_model
 from tca_ros.model.limits import check_thread_strength
 from tca_ros.model.resistance import resistance
 from tca_ros.model.thermal import heat_capacity, surface_area, thermal_conductance

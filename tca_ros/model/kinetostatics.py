@@ -285,24 +285,3 @@ def fixed_coil_centreline(params, elongation, n_points):
     s = np.linspace(0.0, 1.0, int(n_points))
     phase = -2.0 * math.pi * coils * s
     return np.vstack((radius * np.cos(phase), radius * np.sin(phase), -length * s))
-
-
-_MODELS = {'love': LoveModel, 'cst': CstModel}
-
-
-def make_kinetostatic_model(params, name=None):
-    """Return the kinetostatic model ``name`` (rod | cst | love; default params.model)."""
-    name = name or params.model
-    if params.coil.shape == 'conical':
-        if name != 'rod':
-            raise ValueError(f'model = {name!r}: a conical TCA needs the rod model (cst and '
-                             'love assume a uniform helix)')
-        from tca_ros.model.conical_table import cached_conical_model
-        return cached_conical_model(params)
-    if name == 'rod':
-        # one table per TCA, shared by every simulator and the centreline
-        from tca_ros.model.rod_model import cached_rod_model
-        return cached_rod_model(params)
-    if name not in _MODELS:
-        raise ValueError(f'model = {name!r}: must be one of rod, cst, love')
-    return _MODELS[name](params)

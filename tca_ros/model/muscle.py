@@ -33,7 +33,8 @@ import numpy as np
 from scipy.optimize import brentq
 import yaml
 
-from tca_ros.model.kinetostatics import loaded_length, make_kinetostatic_model
+from tca_ros.model.kinetostatic_models import make_kinetostatic_model
+from tca_ros.model.kinetostatics import loaded_length
 from tca_ros.model.params import (config_dir, flatten, from_flat_dict, GRAVITY, MODELS,
                                   ParameterError, SCHEMA, SPECS)
 from tca_ros.model.thermal import (fiber_mass, heat_capacity, surface_area,

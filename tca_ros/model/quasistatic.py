@@ -37,7 +37,8 @@ from scipy.signal import lfilter
 from tca_ros.model import effects as fx
 from tca_ros.model import quasistatic_effects as qe
 from tca_ros.model.dynamics import SimulationResult
-from tca_ros.model.kinetostatics import contact_elongation, make_kinetostatic_model
+from tca_ros.model.kinetostatic_models import make_kinetostatic_model
+from tca_ros.model.kinetostatics import contact_elongation
 from tca_ros.model.resistance import resistance
 from tca_ros.model.rod_model import helix_elongation, mechanical_params
 from tca_ros.model.thermal import heat_capacity, thermal_conductance

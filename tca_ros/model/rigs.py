@@ -54,7 +54,8 @@ from tca_ros.model import effects as fx
 from tca_ros.model.dynamics import central_difference_limit, central_difference_step
 from tca_ros.model.dynamics import MAX_SUBSTEPS, STABILITY_RECHECK
 from tca_ros.model.dynamics import STABILITY_SAFETY, StabilityError, TcaSimulator
-from tca_ros.model.kinetostatics import KinetostaticModel, make_kinetostatic_model
+from tca_ros.model.kinetostatic_models import make_kinetostatic_model
+from tca_ros.model.kinetostatics import KinetostaticModel
 from tca_ros.model.kinetostatics import static_elongation
 from tca_ros.model.params import ParameterError, RIG_MODES
 

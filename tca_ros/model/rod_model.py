@@ -139,37 +139,12 @@ def _rod_model_for(params):
     return RodKinetostatics(params)
 
 
-def centreline(params, elongation, temperature, n_points=200):
-    """Return the centreline of the TCA at elongation y and temperature T.
+def helix_centreline_at(params, elongation, temperature, n_points=200):
+    """Return the centreline (m) of a helical TCA at elongation y (m) and T (degC).
 
-    Helix: the exact uniform helix at the tension f_rod(y, T), on the global Z axis,
-    from the clamp at z = 0 downwards (z = -l at the free end), for display (RViz).
-    Conical: the hanging cone from the rod branches of its table (conical_table),
-    apex clamp at the origin.
-
-    Parameters
-    ----------
-    params : TcaParams
-        A helical TCA.
-    elongation : float
-        y (m) from the natural length.
-    temperature : float
-        T (degC).
-    n_points : int
-        Number of points, >= 2.
-
-    Returns
-    -------
-    ndarray, shape (3, n_points)
-        Positions (m) in the clamp's frame.
+    The exact uniform helix at the tension f_rod(y, T), on the global Z axis, from the
+    clamp at z = 0 downwards (z = -l at the free end): shape (3, n_points), n_points >= 2.
     """
-    if int(n_points) < 2:
-        raise ValueError(f'n_points = {n_points!r}: must be >= 2')
-    if params.coil.shape != 'helix':
-        from tca_ros.model.conical_table import cached_conical_model
-        shape = cached_conical_model(params).centreline(elongation, temperature)
-        pick = np.linspace(0.0, shape.shape[1] - 1.0, int(n_points))
-        return np.array([np.interp(pick, np.arange(shape.shape[1]), row) for row in shape])
     model = cached_rod_model(params)
     force = model.tension(elongation, temperature)
     eq = _helix_state(params, temperature, force)

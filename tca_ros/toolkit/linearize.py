@@ -32,8 +32,8 @@ import numpy as np
 from scipy.optimize import brentq
 
 from tca_ros.model import effects as fx
+from tca_ros.model.kinetostatic_models import make_kinetostatic_model
 from tca_ros.model.kinetostatics import contact_elongation, KinetostaticModel
-from tca_ros.model.kinetostatics import make_kinetostatic_model
 from tca_ros.model.resistance import power_from_voltage, resistance
 from tca_ros.model.thermal import heat_capacity, surface_area, thermal_conductance
 
