@@ -15,6 +15,7 @@ import time
 from tca_ros.cli_common import checked_config, InputError
 
 MAX_TIMEOUT = 3600.0  # s
+STARTED_DISCOVERY = 30.0  # s a node started by --start-node may take to be discovered
 
 
 def add_parser(subparsers):
@@ -122,7 +123,9 @@ def _score_over_ros(args, tasks):
         proc = start_node(namespace, checked_config(args.config), args.model,
                           default_log_path(args.out), max(args.timeout, 30.0))
     try:
-        runs, values = score_over_ros(tasks, namespace, args.node, args.timeout)
+        # a node just started needs discovery time whatever --timeout says
+        runs, values = score_over_ros(tasks, namespace, args.node, args.timeout,
+                                      max(args.timeout, STARTED_DISCOVERY) if proc else None)
     finally:
         if proc is not None:
             stop_node(proc)

@@ -15,8 +15,8 @@ import subprocess
 import sys
 import time
 
-import rclpy
 from rcl_interfaces.srv import GetParameters
+import rclpy
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import parameter_value_to_python
@@ -71,14 +71,19 @@ class RosScorer(Node):
             self._executor.spin_once(timeout_sec=SPIN_STEP)
         return True
 
-    def node_parameters(self):
-        """Return {name: value} of the node's muscle and lockstep settings."""
+    def node_parameters(self, discovery=None):
+        """Return {name: value} of the node's muscle and lockstep settings.
+
+        ``discovery``: seconds to wait for the node to be discovered (default: timeout).
+        """
         names = [spec.name for spec in SCHEMA] + list(NODE_SETTINGS)
-        found = self._spin_until(lambda: self._task_pub.get_subscription_count() > 0
-                                 and self._params_client.service_is_ready(), self.timeout)
+        discovery = self.timeout if discovery is None else discovery
+        found = self._spin_until(
+            lambda: self._task_pub.get_subscription_count() > 0
+            and self._params_client.service_is_ready(), discovery)
         if not found:
             raise InputError(f'no tca node answers in {self._where or "/"} within '
-                             f'{self.timeout:g} s (nothing reads {self._where}/task; start '
+                             f'{discovery:g} s (nothing reads {self._where}/task; start '
                              'one, or use --start-node)')
         future = self._params_client.call_async(GetParameters.Request(names=names))
         if not self._spin_until(future.done, self.timeout) or future.result() is None:
@@ -142,8 +147,10 @@ class RosScorer(Node):
         self.destroy_node()
 
 
-def score_over_ros(tasks, namespace, node_name='tca', timeout=10.0):
+def score_over_ros(tasks, namespace, node_name='tca', timeout=10.0, discovery=None):
     """Run ``tasks`` on the ``tca`` node in ``namespace``; return (runs, node parameters).
+
+    ``discovery`` (s, default ``timeout``) bounds the wait for the node to be found.
 
     Each run is the dict of tca_ros.toolkit.scoring.scored_run plus 'broken' (the
     muscle broke during the task). Raises InputError (one line) when no node or no
@@ -154,15 +161,14 @@ def score_over_ros(tasks, namespace, node_name='tca', timeout=10.0):
         rclpy.init()
     scorer = RosScorer(namespace, node_name, timeout)
     try:
-        values = scorer.node_parameters()
+        values = scorer.node_parameters(discovery)
         params = from_flat_dict({spec.name: values[spec.name] for spec in SCHEMA},
                                 source=f'{scorer.target} parameters')
         values['stamped_reference'] = scorer.wait_for_controller()
         runs = []
         for task in tasks:
             t, reference, load = task_inputs(task, params, params.model,
-                                              values['publish_rate'],
-                                              values['max_temperature'])
+                                             values['publish_rate'], values['max_temperature'])
             record = scorer.play(task, t, reference, load)
             run = scored_run(task, t, reference, load, record['displacement'],
                              record['temperature'], record['power'],
