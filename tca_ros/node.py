@@ -316,8 +316,8 @@ class TcaSimNode(Node):
     def _publish_tick(self):
         """Publish /clock and the state; in lockstep, then wait for a command.
 
-        In a scored task the tick's load is set and its reference published (and
-        acknowledged) first (tca_ros.node_task).
+        In a scored task the tick's load is set and its stamped reference published
+        first, and the published state recorded after (tca_ros.node_task).
         """
         if self._task.active:
             self._load = self._task.before_state(_time_msg(self._sim_ns))
@@ -333,14 +333,14 @@ class TcaSimNode(Node):
         return physics_steps_per_tick(self._cfg)
 
     def _start_task(self, load):
-        """Restart at t = 0 from the loaded equilibrium at ambient under load (N)."""
+        """Start a task: the loaded equilibrium at ambient under load (N), TASK_GAP on."""
         if not (self._owns_time and self._cfg['lockstep'] and self._rig.mode == 'dead_weight'):
             raise ValueError('task: needs publish_clock, lockstep and rig.mode dead_weight')
         self._load = load
         self._reset_sim()
         self._drive, self._last_command_ns, self._watchdog_tripped = ('power', 0.0), None, False
         self._sim_ns += round(TASK_GAP * _NS)
-        self._next_shape_ns, self._wall_t0 = 0, None
+        self._wall_t0 = None
         self._started = self._awaiting_command = False
 
     # -- physics ----------------------------------------------------------------------
