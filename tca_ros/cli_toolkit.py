@@ -1,8 +1,8 @@
-"""`tca_sim linearize`: the small-signal plant for the controller developer.
+"""`tca_sim linearize` and `tca_sim score`: tools for the controller developer.
 
-The method is in tca_ros.toolkit.linearize (docs/toolkit.md); this module checks
-the request, prints poles, gains, bandwidths and transfer functions and, with
-``--out DIR``, writes the Bode plot and the matrices.
+The methods are in tca_ros.toolkit (docs/toolkit.md); ``linearize`` checks the
+request, prints poles, gains, bandwidths and transfer functions and, with ``--out
+DIR``, writes the Bode plot and the matrices; ``score`` is in cli_score.
 """
 import argparse
 import json
@@ -10,6 +10,7 @@ import math
 import os
 
 from tca_ros.cli_common import checked_config, finite_float, InputError
+from tca_ros.cli_score import add_parser as add_score_parser
 
 CHANNELS = (('power', 'displacement'), ('power', 'temperature'), ('power', 'resistance'),
             ('load', 'displacement'), ('voltage', 'displacement'))
@@ -36,6 +37,7 @@ def add_parser(subparsers):
     sp.add_argument('--out', default=None,
                     help='directory (DIR) for bode.png and linear_model.json (A, B, C, D)')
     sp.set_defaults(func=cmd_linearize)
+    add_score_parser(subparsers)
 
 
 def _check(args):

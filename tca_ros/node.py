@@ -46,6 +46,7 @@ from tca_ros.node_params import (  # noqa: F401  (re-exported: the node's parame
     validate_node_values)
 from tca_ros.node_rigs import RigTopics
 from tca_ros.node_spin import spin_resiliently
+from tca_ros.node_task import TASK_GAP, TaskPlayer
 
 
 STATE_QOS = QoSProfile(depth=10)  # reliable: serves reliable and best-effort readers
@@ -145,6 +146,8 @@ class TcaSimNode(Node):
         self._wall = Clock(clock_type=ClockType.STEADY_TIME)
         if self._owns_time:
             self._clock_pub = self.create_publisher(ClockMsg, '/clock', CLOCK_QOS)
+        # scored tasks (tca_sim score --namespace): reference and load per tick
+        self._task = TaskPlayer(self, self._start_task, lambda: self._cfg['joint_name'])
         self._timer = None
         self._make_timer()
         self._diagnostics = DiagnosticsPublisher(
@@ -235,6 +238,11 @@ class TcaSimNode(Node):
 
     def _clock_tick(self):
         """Tick the node-owned clock at real_time_factor (publish_clock mode)."""
+        if self._task.queued and (not self._awaiting_command
+                                  or time.monotonic() >= self._await_deadline):
+            self._task.start()
+        if self._task.holding:
+            return
         if not self._started:
             if self._cfg['lockstep'] and not self._peers_matched():
                 return
@@ -256,6 +264,7 @@ class TcaSimNode(Node):
                 f'lockstep: no command within {self._cfg["lockstep_timeout"]:g} s: '
                 'advancing with the last one', throttle_duration_sec=WARN_PERIOD)
             self._awaiting_command = False
+            self._task.missed += self._task.active
         self._run_ticks()
 
     def log_time_summary(self):
@@ -293,6 +302,9 @@ class TcaSimNode(Node):
                     break
                 if due - self._ticks_done > MAX_CATCH_UP / tick_s:
                     self._wall_t0 = time.monotonic() - self._ticks_done * tick_s / rtf
+            if self._task.at_end():
+                self._task.finish(self._command_power(self._sim_ns), self._broken)
+                return
             self._ticks_done += 1
             self._advance(self._steps_per_tick())
             self._sim_ns += round(tick_s * _NS)
@@ -302,15 +314,34 @@ class TcaSimNode(Node):
         self._clock_pub.publish(ClockMsg(clock=_time_msg(self._sim_ns)))
 
     def _publish_tick(self):
-        """Publish /clock and the state; in lockstep, then wait for a command."""
+        """Publish /clock and the state; in lockstep, then wait for a command.
+
+        In a scored task the tick's load is set and its stamped reference published
+        first, and the published state recorded after (tca_ros.node_task).
+        """
+        if self._task.active:
+            self._load = self._task.before_state(_time_msg(self._sim_ns))
         self._publish_clock()
         self._publish_state(self._sim_ns)
+        if self._task.active:
+            self._task.after_state(self._sample[1], self._sample[5], self._power)
         if self._cfg['lockstep']:
             self._awaiting_command = True
             self._await_deadline = time.monotonic() + self._cfg['lockstep_timeout']
 
     def _steps_per_tick(self):
         return physics_steps_per_tick(self._cfg)
+
+    def _start_task(self, load):
+        """Start a task: the loaded equilibrium at ambient under load (N), TASK_GAP on."""
+        if not (self._owns_time and self._cfg['lockstep'] and self._rig.mode == 'dead_weight'):
+            raise ValueError('task: needs publish_clock, lockstep and rig.mode dead_weight')
+        self._load = load
+        self._reset_sim()
+        self._drive, self._last_command_ns, self._watchdog_tripped = ('power', 0.0), None, False
+        self._sim_ns += round(TASK_GAP * _NS)
+        self._wall_t0 = None
+        self._started = self._awaiting_command = False
 
     # -- physics ----------------------------------------------------------------------
     def _command_power(self, now_ns):
@@ -546,6 +577,11 @@ class TcaSimNode(Node):
         return False
 
     def _command(self, kind, value):
+        if self._task.queued and self._awaiting_command:
+            self._awaiting_command = False  # the answer to the state before the task
+            self._task.start()
+            return
+        self._task.extra += self._task.active and self._started and not self._awaiting_command
         self._last_command_ns = self._command_time()
         self._drive = (kind, value)
         if self._watchdog_tripped:
@@ -600,6 +636,7 @@ class TcaSimNode(Node):
         self._drive = ('power', 0.0)
         self._last_command_ns = None
         self._watchdog_tripped = False
+        self._task.holding = False  # a scored run's hold ends: lockstep goes on
         response.success = True
         response.message = (f'reset to the loaded equilibrium at '
                             f'{self._sim.state.temperature:g} degC, load {self._load:g} N')

@@ -32,6 +32,7 @@ FEEDBACK_QOS = QoSProfile(depth=10)
 SETPOINT_QOS = QoSProfile(depth=10)
 
 MAX_SAMPLE_TIME = 1.0  # s; a longer gap between feedback stamps restarts the integrator
+REFERENCE_KEEP = 1000  # stamped references kept for states still to come
 MATCH_WAIT = 2.0  # s of wall time the first command waits for the simulator to be matched
 
 #: (name, default, unit, description, low, high); gains tuned on the free-stroke TCA.
@@ -63,6 +64,11 @@ class PidController:
         self.integral = 0.0  # m s
         self._filtered = None  # m, filtered measurement
         self._rate = 0.0  # m/s, its derivative
+
+    def settings(self):
+        """Return the gains and limits (the constructor's arguments) as a dict."""
+        return {name: getattr(self, name) for name in (
+            'kp', 'ki', 'kd', 'derivative_filter', 'feedforward', 'min_power', 'max_power')}
 
     def update(self, setpoint, measurement, dt):
         """Return the power (W) for setpoint and measurement (m) after dt (s)."""
@@ -119,9 +125,21 @@ class TcaPidNode(Node):
         self._last_stamp_ns = None
         self._waited_for_match = False
         self._power_pub = self.create_publisher(Float64, 'power_cmd', COMMAND_QOS)
-        self.create_subscription(JointState, 'joint_states', self._on_feedback, FEEDBACK_QOS)
+        # The setpoint first: when both are pending, the executor serves subscriptions in
+        # creation order, so a pending setpoint is taken before a pending state.
         self.create_subscription(Float64, 'displacement_setpoint', self._on_setpoint,
                                  SETPOINT_QOS)
+        self._stamped = self.declare_parameter('stamped_reference', False, ParameterDescriptor(
+            description='Answer each joint_states message with the reference (topic '
+                        'reference, JointState) of the same stamp, waiting for it: '
+                        'deterministic scored runs (tca_sim score --namespace).',
+            read_only=True)).value
+        self._references = {}  # stamp (ns) -> reference (m), the latest REFERENCE_KEEP
+        self._pending = None  # a state waiting for its reference
+        if self._stamped:
+            self.create_subscription(JointState, 'reference', self._on_reference,
+                                     SETPOINT_QOS)
+        self.create_subscription(JointState, 'joint_states', self._on_feedback, FEEDBACK_QOS)
         self.get_logger().info(f'tca_pid ready: setpoint {self._setpoint:g} m')
 
     def _on_setpoint(self, msg):
@@ -132,7 +150,31 @@ class TcaPidNode(Node):
             self.get_logger().warning('displacement_setpoint: non-finite value rejected',
                                       throttle_duration_sec=1.0)
 
+    def _on_reference(self, msg):
+        index = msg.name.index(self._joint) if self._joint in msg.name else 0
+        if len(msg.position) <= index or not math.isfinite(msg.position[index]):
+            self.get_logger().warning('reference: no finite position: ignored',
+                                      throttle_duration_sec=1.0)
+            return
+        stamp = _stamp_ns(msg)
+        if self._references and stamp < max(self._references):
+            self._references.clear()  # time went back: a new episode's references
+        self._references[stamp] = msg.position[index]
+        while len(self._references) > REFERENCE_KEEP:
+            del self._references[min(self._references)]
+        if self._pending is not None and _stamp_ns(self._pending) == stamp:
+            pending, self._pending = self._pending, None
+            self._on_feedback(pending)
+
     def _on_feedback(self, msg):
+        if self._stamped and _stamp_ns(msg) != self._last_stamp_ns:  # (a repeat: as before)
+            stamp = _stamp_ns(msg)
+            if stamp not in self._references:
+                self._pending = msg  # answered when its reference comes
+                return
+            self._setpoint, self._have_setpoint = self._references[stamp], True
+            for old in [s for s in self._references if s <= stamp]:
+                del self._references[old]  # only references of states to come stay
         # the muscle's joint by name (a merged joint_states has several); unnamed: first
         index = msg.name.index(self._joint) if self._joint in msg.name else 0
         if len(msg.position) <= index or not math.isfinite(msg.position[index]) or (
@@ -145,7 +187,12 @@ class TcaPidNode(Node):
             return
         if not self._have_setpoint:
             return
-        stamp = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
+        stamp = _stamp_ns(msg)
+        if self._last_stamp_ns is not None and not 0 <= stamp - self._last_stamp_ns <= \
+                MAX_SAMPLE_TIME * 1e9:
+            # Time went back or jumped: a new episode (a scored task starts after a gap).
+            self._pid = PidController(**self._pid.settings())
+            self._last_stamp_ns = None
         dt = 0.0 if self._last_stamp_ns is None else (stamp - self._last_stamp_ns) * 1e-9
         self._last_stamp_ns = stamp
         power = self._pid.update(self._setpoint, msg.position[index], dt)
@@ -182,6 +229,11 @@ class TcaPidNode(Node):
             else:
                 setattr(pid, name, value)
         return SetParametersResult(successful=True)
+
+
+def _stamp_ns(msg):
+    """Return a stamped message's header stamp in ns."""
+    return msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
 
 
 def checked_value(name, value):

@@ -49,6 +49,32 @@ def stroke_scales(params, model=None, max_temperature=MAX_TEMPERATURE):
     return float(x[1]), float(x[2])
 
 
+def task_inputs(task, params, model=None, control_rate=100.0,
+                max_temperature=MAX_TEMPERATURE):
+    """Return (t (s), reference (m), load (N)) of a task at the control ticks.
+
+    The stroke scales come from the statics of ``model`` (the config's by default),
+    so a runner over ROS computes the very inputs the in-process one does.
+    """
+    dt = 1.0 / control_rate
+    stroke, hot = stroke_scales(params, model, max_temperature)
+    n = int(round(task.duration * control_rate))
+    t = np.arange(n + 1) * dt
+    return t, task.reference(t, stroke, hot), task.load(t, params.dynamics.load)
+
+
+def scored_run(task, t, reference, load, displacement, temperature, power,
+               max_temperature=MAX_TEMPERATURE):
+    """Return the run dict (sample arrays, SI and degC) of one task with its metrics."""
+    run = {'task': task.name, 'time': t, 'reference': reference, 'load': load,
+           'displacement': np.asarray(displacement, dtype=float),
+           'temperature': np.asarray(temperature, dtype=float),
+           'power': np.asarray(power, dtype=float)}
+    run['metrics'] = score(t, reference, run['displacement'], run['temperature'],
+                           run['power'], max_temperature)
+    return run
+
+
 def run_task(task, params, controller_factory, model=None, control_rate=100.0,
              physics_rate=1000.0, max_temperature=MAX_TEMPERATURE, max_power=MAX_POWER):
     """Run one task; return a dict of sample arrays (SI, degC) and its metrics.
@@ -59,11 +85,9 @@ def run_task(task, params, controller_factory, model=None, control_rate=100.0,
     dt = 1.0 / control_rate
     substeps = max(1, int(round(physics_rate / control_rate)))
     sim = TcaSimulator(params, model=model, dt=dt / substeps)
-    stroke, hot = stroke_scales(params, sim.kinetostatics.name, max_temperature)
-    n = int(round(task.duration * control_rate))
-    t = np.arange(n + 1) * dt
-    reference = task.reference(t, stroke, hot)
-    load = task.load(t, params.dynamics.load)
+    t, reference, load = task_inputs(task, params, sim.kinetostatics.name, control_rate,
+                                     max_temperature)
+    n = t.size - 1
     state = sim.reset(load=load[0])
     rows = np.empty((n + 1, 3))  # displacement (m), temperature (degC), power (W)
     for k in range(n + 1):
@@ -72,10 +96,8 @@ def run_task(task, params, controller_factory, model=None, control_rate=100.0,
         if k < n:
             for _ in range(substeps):
                 state = sim.step(power, load[k])
-    run = {'task': task.name, 'time': t, 'reference': reference, 'load': load,
-           'displacement': rows[:, 0], 'temperature': rows[:, 1], 'power': rows[:, 2]}
-    run['metrics'] = score(t, reference, rows[:, 0], rows[:, 1], rows[:, 2], max_temperature)
-    return run
+    return scored_run(task, t, reference, load, rows[:, 0], rows[:, 1], rows[:, 2],
+                      max_temperature)
 
 
 def run_tasks(tasks, params, controller_factory, **options):
