@@ -48,7 +48,7 @@ def _closed_loop_run(log_dir, tag):
     y = np.array([samples[k] for k in t])
     n = int(round(SIM_SECONDS / TICK)) + 1
     assert clocks, 'no /clock'
-    return t[:n], y[:n], SIM_SECONDS / wall
+    return t[:n], y[:n], wall
 
 
 @pytest.fixture(scope='module')
@@ -57,13 +57,12 @@ def runs(tmp_path_factory):
     return [_closed_loop_run(log_dir, tag) for tag in ('a', 'b')]
 
 
-def test_ticks_are_contiguous_and_faster_than_real_time(runs):
-    t, _, speed = runs[0]
+def test_ticks_are_contiguous_from_zero(runs):
+    t, _, _ = runs[0]
     np.testing.assert_allclose(np.diff(t), TICK, atol=1e-9)  # integer-ns ticks
     assert t[0] == 0.0
-    # Lockstep: each tick waits for the controller's reply (~5 ms round trip here), so
-    # the loop is bound by that latency: ~2x real time on this 2-core box; 1x is the floor.
-    assert speed > 1.0
+    assert len(t) == int(round(SIM_SECONDS / TICK)) + 1  # no tick lost or repeated
+    # how fast lockstep runs (bound by the controller's round trip) is bench_node's figure
 
 
 def test_lockstep_runs_with_the_same_seed_are_identical(runs):
