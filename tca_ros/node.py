@@ -11,12 +11,8 @@ parameters and examples: docs/node.md.
 """
 import math
 import sys
-import time
 
-from builtin_interfaces.msg import Time as TimeMsg
-from geometry_msgs.msg import Point
 import numpy as np
-from rcl_interfaces.msg import SetParametersResult
 import rclpy
 from rclpy._rclpy_pybind11 import RCLError
 from rclpy.clock import Clock, ClockType
@@ -31,22 +27,22 @@ from std_msgs.msg import Float64
 from std_srvs.srv import Trigger
 from visualization_msgs.msg import Marker
 
-from tca_ros.model.dynamics import StabilityError
-from tca_ros.model.kinetostatic_models import centreline as rod_centreline
-from tca_ros.model.kinetostatics import fixed_coil_centreline
-from tca_ros.model.params import from_flat_dict, ParameterError, SCHEMA, SPECS
+from tca_ros.model.params import from_flat_dict, ParameterError, SCHEMA
 from tca_ros.model.resistance import power_from_voltage
 from tca_ros.model.rigs import start_load
-from tca_ros.node_diagnostics import DiagnosticsPublisher, MuscleState
+from tca_ros.node_clock import ClockMixin, NS, time_msg, WARN_PERIOD
+from tca_ros.node_diagnostics import DiagnosticsPublisher
+from tca_ros.node_outputs import non_finite, OutputsMixin
 from tca_ros.node_params import (  # noqa: F401  (re-exported: the node's parameter API)
     build_simulator, check_model_supports, check_ros_arguments, check_unknown_overrides,
     descriptor, GuardedParameterService, init_quietly, INTEGER_NAMES, log_fatal,
     model_for_node, NAMESPACED, namespaced_name, NODE_SCHEMA, NODE_SPECS,
     numbers_as_declared_types, physics_dt, physics_steps_per_tick, READ_ONLY, REBUILD,
     validate_node_values)
+from tca_ros.node_reconfigure import ParametersMixin
 from tca_ros.node_rigs import RigTopics
 from tca_ros.node_spin import spin_resiliently
-from tca_ros.node_task import TASK_GAP, TaskPlayer
+from tca_ros.node_task import TaskPlayer
 
 
 STATE_QOS = QoSProfile(depth=10)  # reliable: serves reliable and best-effort readers
@@ -54,20 +50,16 @@ COMMAND_QOS = QoSProfile(depth=10)
 CLOCK_QOS = QoSProfile(depth=1)  # reliable writer; rclpy's clock reader is best effort
 SHAPE_QOS = QoSProfile(depth=1)
 
-MAX_CATCH_UP = 1.0  # s of physics run at most per callback after a stall or a clock jump
-MAX_CATCH_UP_WALL = 0.2  # s of wall time a callback may spend stepping (services must answer)
-CATCH_UP_CHUNK = 50  # physics steps between checks of that wall-time budget
-FAST_BATCH = 0.02  # s of wall time spent ticking per callback at real_time_factor 0
-FAST_PERIOD = 1e-3  # s, wall period of the tick timer in publish_clock mode, factor 0
-LOCKSTEP_POLL = 0.01  # s, wall period of that timer in lockstep (wake-ups cost ~0.1 ms)
 MAX_TEMPERATURE_REARM = 1.0  # K below max_temperature before a new crossing is logged
-WARN_PERIOD = 1.0  # s between repeats of a throttled warning
-
-_NS = 1_000_000_000
 
 
-class TcaSimNode(Node):
-    """Step the TCA model at physics_rate and publish its state at publish_rate."""
+class TcaSimNode(ClockMixin, OutputsMixin, ParametersMixin, Node):
+    """Step the TCA model at physics_rate and publish its state at publish_rate.
+
+    Here: start-up, the physics episode (commands, watchdog, limits, failure, reset) and
+    the inputs; the time in node_clock.ClockMixin, the outputs in
+    node_outputs.OutputsMixin, parameter changes in node_reconfigure.ParametersMixin.
+    """
 
     def __init__(self, **kwargs):
         kwargs['start_parameter_services'] = False  # ours refuse what rclpy cannot convert
@@ -151,7 +143,7 @@ class TcaSimNode(Node):
         self._timer = None
         self._make_timer()
         self._diagnostics = DiagnosticsPublisher(
-            self, self._muscle_state, lambda: _time_msg(self._now_ns()), self._wall)
+            self, self._muscle_state, lambda: time_msg(self._now_ns()), self._wall)
         try:
             self._reset_sim()
         except (ValueError, ArithmeticError) as exc:  # one line at start-up, no traceback
@@ -163,186 +155,6 @@ class TcaSimNode(Node):
             + (f'own clock x{self._cfg["real_time_factor"]:g}' if self._owns_time
                else 'node clock'))
 
-    # -- time -------------------------------------------------------------------------
-    def _make_timer(self):
-        """(Re)create the tick timer for the time mode and rates."""
-        if self._timer is not None:
-            self.destroy_timer(self._timer)
-        if self._owns_time:
-            rtf = self._cfg['real_time_factor']
-            period = FAST_PERIOD if rtf == 0.0 else min(
-                FAST_PERIOD * 10, 1.0 / (self._cfg['publish_rate'] * rtf))
-            if self._cfg['lockstep']:
-                # Commands drive the ticks; the timer only starts them and times out.
-                period = max(period, LOCKSTEP_POLL)
-            self._timer = self.create_timer(period, self._on_clock_timer, clock=self._wall)
-            self._wall_t0, self._ticks_done = None, 0
-        else:
-            self._timer = self.create_timer(1.0 / self._cfg['publish_rate'], self._on_timer)
-
-    def _now_ns(self):
-        """Return the node time (ns): own sim time with publish_clock, else the ROS clock."""
-        if self._owns_time:
-            return self._sim_ns
-        return self.get_clock().now().nanoseconds
-
-    def _catch_up(self):
-        """Step the physics up to the node clock (modes without publish_clock)."""
-        now = self._now_ns()
-        if now == 0:  # use_sim_time and no /clock received yet
-            return
-        if self._t0_ns is None or now < self._t0_ns:
-            if self._t0_ns is not None:
-                self.get_logger().warning('clock jumped backwards: physics time rebased')
-            self._t0_ns, self._steps_done = now, 0
-        target = int((now - self._t0_ns) / (self._sim.dt * _NS))
-        n = target - self._steps_done
-        limit = int(MAX_CATCH_UP / self._sim.dt)
-        if n > limit:
-            self.get_logger().warning(
-                f'physics {n * self._sim.dt:.3g} s behind the clock: skipped to now',
-                throttle_duration_sec=WARN_PERIOD)
-            self._steps_done += n - limit
-            n = limit
-        deadline = time.monotonic() + MAX_CATCH_UP_WALL
-        for start in range(0, n, CATCH_UP_CHUNK):
-            if time.monotonic() > deadline:
-                # A physics_rate this machine cannot keep up with: drop physics time
-                # rather than leave services and commands waiting behind the stepper.
-                self.get_logger().warning(
-                    f'physics {(n - start) * self._sim.dt:.3g} s behind the clock after '
-                    f'{MAX_CATCH_UP_WALL:g} s of stepping: skipped to now (lower '
-                    'physics_rate?)', throttle_duration_sec=WARN_PERIOD)
-                break
-            self._advance(min(CATCH_UP_CHUNK, n - start))
-        self._steps_done += n
-
-    def _on_timer(self):
-        try:
-            self._catch_up()
-            self._publish_state(self._now_ns())
-        except Exception as exc:  # noqa: B902  a tick must never end the node
-            self._fail_unless_stopping(exc)
-
-    def _on_clock_timer(self):
-        """Tick the node-owned clock; a failure marks the muscle broken, never raises."""
-        try:
-            self._clock_tick()
-        except Exception as exc:  # noqa: B902  a tick must never end the node
-            self._fail_unless_stopping(exc)
-
-    def _fail_unless_stopping(self, exc):
-        """Fail the episode on exc, unless a signal shut the context down meanwhile."""
-        if self.context.ok():
-            self._fail(f'{type(exc).__name__}: {exc}')
-
-    def _clock_tick(self):
-        """Tick the node-owned clock at real_time_factor (publish_clock mode)."""
-        if self._task.queued and (not self._awaiting_command
-                                  or time.monotonic() >= self._await_deadline):
-            self._task.start()
-        if self._task.holding:
-            return
-        if not self._started:
-            if self._cfg['lockstep'] and not self._peers_matched():
-                return
-            self._started = True
-            self._wall_first_tick = time.monotonic()
-            self._publish_tick()
-            return
-        if self._awaiting_command:
-            if time.monotonic() < self._await_deadline:
-                return
-            if self._last_command_ns is None:
-                # The controller's reader may not have matched yet when the first state
-                # went out: repeat it (same values) rather than advance without a reply.
-                self._publish_clock()
-                self._emit_sample()
-                self._await_deadline = time.monotonic() + self._cfg['lockstep_timeout']
-                return
-            self.get_logger().warning(
-                f'lockstep: no command within {self._cfg["lockstep_timeout"]:g} s: '
-                'advancing with the last one', throttle_duration_sec=WARN_PERIOD)
-            self._awaiting_command = False
-            self._task.missed += self._task.active
-        self._run_ticks()
-
-    def log_time_summary(self):
-        """Log the sim time reached and its ratio to wall time (publish_clock mode)."""
-        if self._owns_time and self._wall_first_tick is not None:
-            wall = time.monotonic() - self._wall_first_tick
-            sim = self._sim_ns / _NS
-            # Not the node's logger: at shutdown its /rosout publisher is already gone.
-            rclpy.logging.get_logger('tca.time').info(
-                f'simulated {sim:.3f} s in {wall:.3f} s of wall time '
-                f'({sim / max(wall, 1e-9):.1f}x real time)')
-
-    def _peers_matched(self):
-        """Return True when a controller reads the state and writes commands."""
-        readers = self._joint_pub.get_subscription_count() \
-            + self._disp_pub.get_subscription_count()
-        writers = self._power_sub.get_publisher_count() \
-            + self._voltage_sub.get_publisher_count()
-        return readers > 0 and writers > 0
-
-    def _run_ticks(self):
-        """Run the ticks that are due (or a wall-time batch at factor 0)."""
-        rtf = self._cfg['real_time_factor']
-        tick_s = 1.0 / self._cfg['publish_rate']
-        start = time.monotonic()
-        if self._wall_t0 is None:
-            self._wall_t0, self._ticks_done = start, 0
-        while not self._awaiting_command:
-            if rtf == 0.0:
-                if time.monotonic() - start > FAST_BATCH:
-                    break
-            else:
-                due = int((time.monotonic() - self._wall_t0) * rtf / tick_s)
-                if self._ticks_done >= due:
-                    break
-                if due - self._ticks_done > MAX_CATCH_UP / tick_s:
-                    self._wall_t0 = time.monotonic() - self._ticks_done * tick_s / rtf
-            if self._task.at_end():
-                self._task.finish(self._command_power(self._sim_ns), self._broken)
-                return
-            self._ticks_done += 1
-            self._advance(self._steps_per_tick())
-            self._sim_ns += round(tick_s * _NS)
-            self._publish_tick()
-
-    def _publish_clock(self):
-        self._clock_pub.publish(ClockMsg(clock=_time_msg(self._sim_ns)))
-
-    def _publish_tick(self):
-        """Publish /clock and the state; in lockstep, then wait for a command.
-
-        In a scored task the tick's load is set and its stamped reference published
-        first, and the published state recorded after (tca_ros.node_task).
-        """
-        if self._task.active:
-            self._load = self._task.before_state(_time_msg(self._sim_ns))
-        self._publish_clock()
-        self._publish_state(self._sim_ns)
-        if self._task.active:
-            self._task.after_state(self._sample[1], self._sample[5], self._power)
-        if self._cfg['lockstep']:
-            self._awaiting_command = True
-            self._await_deadline = time.monotonic() + self._cfg['lockstep_timeout']
-
-    def _steps_per_tick(self):
-        return physics_steps_per_tick(self._cfg)
-
-    def _start_task(self, load):
-        """Start a task: the loaded equilibrium at ambient under load (N), TASK_GAP on."""
-        if not (self._owns_time and self._cfg['lockstep'] and self._rig.mode == 'dead_weight'):
-            raise ValueError('task: needs publish_clock, lockstep and rig.mode dead_weight')
-        self._load = load
-        self._reset_sim()
-        self._drive, self._last_command_ns, self._watchdog_tripped = ('power', 0.0), None, False
-        self._sim_ns += round(TASK_GAP * _NS)
-        self._wall_t0 = None
-        self._started = self._awaiting_command = False
-
     # -- physics ----------------------------------------------------------------------
     def _command_power(self, now_ns):
         """Return the power (W) to apply now: watchdog, limits, voltage drive."""
@@ -350,7 +162,7 @@ class TcaSimNode(Node):
             return 0.0
         timeout = self._cfg['command_timeout']
         if self._last_command_ns is not None and timeout > 0.0 and \
-                now_ns - self._last_command_ns > timeout * _NS:
+                now_ns - self._last_command_ns > timeout * NS:
             if not self._watchdog_tripped:
                 self._watchdog_tripped = True
                 self.get_logger().warning(
@@ -392,7 +204,7 @@ class TcaSimNode(Node):
             except Exception as exc:  # noqa: B902  ZeroDivision, Overflow, StabilityError...
                 self._fail(f'{type(exc).__name__}: {exc}')
                 return
-            bad = _non_finite(state)
+            bad = non_finite(state)
             if bad:
                 self._fail(f'{bad} = {getattr(state, bad)!r} (non-finite state)')
                 return
@@ -438,7 +250,7 @@ class TcaSimNode(Node):
         finite equilibrium there, e.g. under a load the coil cannot hold.
         """
         self._sim.reset(load=self._load, temperature=temperature)
-        bad = _non_finite(self._sim.state)
+        bad = non_finite(self._sim.state)
         if bad:
             raise ValueError(f'{bad} = {getattr(self._sim.state, bad)!r} at the equilibrium')
         s = self._sim.state
@@ -448,124 +260,6 @@ class TcaSimNode(Node):
         self._overheated = False
         self._frozen = None
         self._power = 0.0
-
-    # -- outputs ----------------------------------------------------------------------
-    def _muscle_state(self, now_ns=None):
-        """Return the MuscleState that /diagnostics reports (model values, no noise)."""
-        s, cfg = self._sim.state, self._cfg
-        if self._owns_time:
-            waiting = '' if self._started else (
-                'a controller (lockstep)' if cfg['lockstep'] else 'the first tick')
-        else:  # the clock read costs ~10 us: a tick passes its own time
-            now = self._now_ns() if now_ns is None else now_ns
-            waiting = 'the first /clock message' if now == 0 else ''
-        return MuscleState(
-            temperature=s.temperature if self._failure is None else self._last_good[2],
-            power=self._power, load=self._load,
-            displacement=self._frozen[0] if self._broken else s.measured_displacement,
-            max_temperature=cfg['max_temperature'], melt_temperature=cfg['melt_temperature'],
-            command_timeout=cfg['command_timeout'], overheated=self._overheated,
-            broken=self._broken, watchdog_tripped=self._watchdog_tripped,
-            failure=self._failure, waiting=waiting)
-
-    def _noise(self, key):
-        std = self._cfg['noise.' + key]
-        return float(self._rng.normal(0.0, std)) if std > 0.0 else 0.0
-
-    def _publish_state(self, now_ns):
-        """Sample the state now (stamps = physics time, ns), publish it and the shape."""
-        s = self._sim.state
-        if not self._broken and _non_finite(s):  # e.g. a state set by a failed reset
-            self._fail(f'{_non_finite(s)} = {getattr(s, _non_finite(s))!r} (non-finite state)')
-        if self._broken:
-            displacement, rate = self._frozen
-            tension, res = 0.0, math.inf  # documented: an open circuit
-            temperature = s.temperature if self._failure is None else self._last_good[2]
-        else:
-            displacement, rate = s.measured_displacement, -s.velocity
-            tension, res = s.tension, s.resistance
-            temperature = s.temperature
-            self._last_good = (displacement, rate, temperature)
-        # The noise is drawn whoever listens, so the outputs never depend on the readers.
-        displacement += self._noise('displacement')
-        res += self._noise('resistance')
-        temperature += self._noise('temperature')
-        self._sample = (_time_msg(now_ns), displacement, rate, tension, res, temperature,
-                        self._power)
-        self._rig.sample(self._sim, self._broken)
-        self._emit_sample()
-        rate = self._cfg['shape_rate']
-        if rate > 0.0 and self._failure is None and now_ns >= self._next_shape_ns and \
-                time.monotonic() >= self._next_shape_wall and \
-                self._shape_pub.get_subscription_count():
-            # At most shape_rate per sim second and per wall second: a viewer needs no
-            # more, and a 1000-point Marker costs ~5 ms to build in Python.
-            self._next_shape_ns = now_ns + round(_NS / rate)
-            self._next_shape_wall = time.monotonic() + 1.0 / rate
-            self._publish_shape(self._sample[0])
-        self._diagnostics.update(self._muscle_state(now_ns))
-
-    def _emit_sample(self):
-        """Publish the last sample to the topics that have readers.
-
-        Messages nobody reads are not built: a third of a tick's cost when the node runs
-        as fast as possible.
-        """
-        stamp, displacement, rate, tension, res, temperature, power = self._sample
-        if self._joint_pub.get_subscription_count():
-            joint = JointState()
-            joint.header.stamp = stamp
-            joint.name = [self._cfg['joint_name']]
-            joint.position, joint.velocity, joint.effort = self._rig.joint(
-                displacement, rate, tension)
-            self._joint_pub.publish(joint)
-        if self._temp_pub.get_subscription_count():
-            temp = Temperature()
-            temp.header.stamp = stamp
-            temp.header.frame_id = self._cfg['frame_id']
-            temp.temperature = temperature
-            temp.variance = self._cfg['noise.temperature'] ** 2
-            self._temp_pub.publish(temp)
-        for pub, value in ((self._disp_pub, displacement), (self._res_pub, res),
-                           (self._power_pub, power)):
-            if pub.get_subscription_count():
-                pub.publish(Float64(data=value))
-        self._rig.publish(stamp, self._cfg['frame_id'])
-
-    def _rod_shape(self):
-        """Return True when the shape comes from the rod solution.
-
-        The rod centreline is the exact one for the rod model and the only one for a
-        conical TCA; for cst and love a helix of the current length (fixed coil count)
-        shows the same stroke without building the rod table.
-        """
-        return self._params.model == 'rod' or self._params.coil.shape != 'helix'
-
-    def _warm_up_shape(self):
-        """Build the rod centreline's tables now rather than stall the first Marker."""
-        if self._cfg['shape_rate'] > 0.0 and self._rod_shape():
-            s = self._sim.state
-            rod_centreline(self._params, s.elongation, s.temperature, 2)
-
-    def _publish_shape(self, stamp):
-        s = self._sim.state
-        n = int(self._cfg['shape_points'])
-        if self._rod_shape():
-            points = rod_centreline(self._params, s.elongation, s.temperature, n)
-        else:
-            points = fixed_coil_centreline(self._params, s.elongation, n)
-        marker = Marker()
-        marker.header.stamp = stamp
-        marker.header.frame_id = self._cfg['base_frame']
-        marker.ns = self.get_fully_qualified_name()  # unique per muscle in one RViz
-        marker.type = Marker.LINE_STRIP
-        marker.action = Marker.ADD
-        marker.pose.orientation.w = 1.0
-        marker.scale.x = 2.0 * self._params.fiber.radius  # line width = fiber diameter, m
-        hot = min(max((s.temperature - 25.0) / 150.0, 0.0), 1.0)
-        marker.color.r, marker.color.g, marker.color.b, marker.color.a = hot, 0.2, 1.0 - hot, 1.0
-        marker.points = [_point(x, y, z) for x, y, z in np.asarray(points).T]
-        self._shape_pub.publish(marker)
 
     # -- inputs -----------------------------------------------------------------------
     def _valid(self, topic, value):
@@ -643,98 +337,6 @@ class TcaSimNode(Node):
         self.get_logger().info(response.message)
         self._diagnostics.update()
         return response
-
-    # -- parameters -------------------------------------------------------------------
-    def _on_set_parameters(self, parameters):
-        """Check new values against the schema and cross-parameter rules; apply them.
-
-        Never raises: an unexpected error refuses the request with its reason.
-        """
-        owned = [p for p in parameters if p.name in SPECS or p.name in NODE_SPECS]
-        if not owned:
-            return SetParametersResult(successful=True)
-        try:
-            return self._apply_parameters(owned)
-        except Exception as exc:  # noqa: B902  a parameter request must never end the node
-            reason = f'{type(exc).__name__}: {exc}'.splitlines()[0]
-            self.get_logger().error(f'parameter change refused: {reason}',
-                                    throttle_duration_sec=WARN_PERIOD)
-            return SetParametersResult(successful=False, reason=reason)
-
-    def _apply_parameters(self, owned):
-        """Validate and apply owned parameters; return the SetParametersResult."""
-        tca_values = {s.name: self.get_parameter(s.name).value for s in SCHEMA}
-        node_values = dict(self._cfg)
-        for p in owned:
-            (tca_values if p.name in SPECS else node_values)[p.name] = p.value
-        if not self._owns_time:
-            self._catch_up()  # up to now with the old values
-        cfg = self._cfg
-        try:
-            params = from_flat_dict(tca_values, source='ros parameters')
-            check_model_supports(params)
-            cfg = validate_node_values(node_values)
-            rebuild = params != self._params or any(cfg[k] != self._cfg[k] for k in REBUILD)
-            if rebuild and params == self._params:
-                # same TCA, new step: keep the whole state (set_dt keeps the old on failure)
-                self._sim.set_dt(physics_dt(cfg))
-            elif rebuild:
-                sim = build_simulator(params, cfg, changed=[p.name for p in owned])
-                temperature = self._start_temperature()
-                load = self._load if params.rig == self._params.rig else start_load(params)
-                try:  # the node's load and temperature, not the file's: refuse if no state
-                    sim.reset(load=load, temperature=temperature)
-                    if _non_finite(sim.state):
-                        raise ValueError(f'{_non_finite(sim.state)} is not finite')
-                except (ValueError, ArithmeticError) as exc:
-                    raise ParameterError(
-                        f'{str(exc).splitlines()[0]} (at the applied load {load:g} N, '
-                        f'{temperature if temperature is not None else "ambient"} degC)') \
-                        from None
-        except StabilityError as exc:
-            return SetParametersResult(
-                successful=False, reason=f'{exc} (physics_rate = {cfg["physics_rate"]:g} Hz)')
-        except ParameterError as exc:
-            return SetParametersResult(successful=False, reason=str(exc))
-        old_cfg, self._cfg = self._cfg, cfg
-        if rebuild:
-            if params != self._params:
-                self._params, self._sim, self._load = params, sim, load
-                self._reset_sim(temperature)
-                self._warm_up_shape()
-            self._t0_ns, self._steps_done = None, 0
-        if cfg['noise.seed'] != old_cfg['noise.seed']:
-            self._rng = np.random.default_rng(int(cfg['noise.seed']))
-        if not cfg['lockstep']:
-            self._awaiting_command = False
-        if any(cfg[k] != old_cfg[k] for k in ('publish_rate', 'real_time_factor', 'lockstep')):
-            self._make_timer()
-        return SetParametersResult(successful=True)
-
-    def _start_temperature(self):
-        """Return the temperature (degC) a rebuilt simulator starts at (None: ambient)."""
-        temp = self._sim.state.temperature
-        return temp if self._failure is None and math.isfinite(temp) else None
-
-
-_CHECKED = ('temperature', 'elongation', 'velocity', 'tension', 'measured_displacement',
-            'resistance')
-
-
-def _non_finite(state):
-    """Return the name of the first non-finite field of a TcaState, or ''."""
-    for name in _CHECKED:
-        if not math.isfinite(getattr(state, name)):
-            return name
-    return ''
-
-
-def _time_msg(ns):
-    return TimeMsg(sec=ns // _NS, nanosec=ns % _NS)
-
-
-def _point(x, y, z):
-    return Point(x=float(x), y=float(y), z=float(z))
 
 
 def main(args=None):

@@ -222,7 +222,7 @@ def test_a_failed_reset_answers_and_a_parameter_change_recovers(tca):
 def test_a_physics_rate_the_machine_cannot_keep_up_with_leaves_the_node_responsive(tca):
     """Stepping stops after MAX_CATCH_UP_WALL of wall time; the physics skips to now."""
     import time
-    from tca_ros.node import MAX_CATCH_UP_WALL
+    from tca_ros.node_clock import MAX_CATCH_UP_WALL
     real_step = tca._sim.step
 
     def slow_step(power, load=None):
