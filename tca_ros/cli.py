@@ -30,7 +30,10 @@ MAX_TEMPERATURE_DEGC = 1000.0  # statics bound: nylon melts near 260 degC, so fa
 MAX_OUTPUT_SAMPLES = 1_000_000  # simulate / diagnose samples: about 50 MB of arrays
 MAX_SIM_STEPS = 300_000  # physics steps of one `simulate` run (5 min at 1 kHz)
 MAX_DIAGNOSE_STEPS = 100_000  # physics steps of one record-rate simulation in diagnose
-MAX_TEMPERATURES = 10_000  # statics rows (each a nonlinear solve, a rod shape if conical)
+MAX_TEMPERATURES = 10_000  # statics rows of a helix (each a nonlinear solve): 13 s CPU
+# A conical TCA's statics solves one rod shape per temperature, about 0.11 s of CPU each
+# (101 temperatures: 13.6 s on the 2-core machine), so its default limit is far lower.
+MAX_CONICAL_SHAPES = 250
 MESSAGE_CHARS = 400  # an error line is cut here: never echo megabytes of input
 DIAGNOSIS_PHYSICS_HZ = 200.0  # diagnose's record-rate physics rate floor (fitting.py)
 DIAGNOSIS_FIT_HZ = 10.0  # diagnose's default fit-grid rate (fitting.FIT_RATE_HZ)
@@ -185,11 +188,6 @@ def cmd_statics(args, out):
     if args.tmin < ABSOLUTE_ZERO_DEGC or args.tmax > MAX_TEMPERATURE_DEGC:
         raise InputError(f'--tmin = {args.tmin:g}, --tmax = {args.tmax:g} degC: allowed '
                          f'{ABSOLUTE_ZERO_DEGC:g} to {MAX_TEMPERATURE_DEGC:g} degC')
-    rows = (args.tmax - args.tmin) / args.tstep + 1.0
-    if not rows <= args.max_samples:
-        raise InputError(f'--tmin {args.tmin:g} --tmax {args.tmax:g} --tstep {args.tstep:g} '
-                         f'give {rows:.4g} temperatures; the limit is {args.max_samples} '
-                         '(--max-samples)')
     if args.mass is not None and not 0.0 <= args.mass * GRAVITY <= MAX_LOAD_N:
         raise InputError(f'--mass = {args.mass:g} kg: allowed 0 to '
                          f'{MAX_LOAD_N / GRAVITY:.4g} kg (load 0 to {MAX_LOAD_N:g} N)')
@@ -199,6 +197,13 @@ def cmd_statics(args, out):
             raise InputError(f'--shape = {clip(args.shape)!r}: directory {clip(folder)!r} '
                              'does not exist')
     p = _params(args)
+    limit = args.max_samples or (MAX_CONICAL_SHAPES if p.coil.shape == 'conical'
+                                 else MAX_TEMPERATURES)
+    rows = (args.tmax - args.tmin) / args.tstep + 1.0
+    if not rows <= limit:
+        what = 'rod shapes (conical)' if p.coil.shape == 'conical' else 'temperatures'
+        raise InputError(f'--tmin {args.tmin:g} --tmax {args.tmax:g} --tstep {args.tstep:g} '
+                         f'give {rows:.4g} {what}; the limit is {limit} (--max-samples)')
     temps = np.arange(args.tmin, args.tmax + 0.5 * args.tstep, args.tstep)
     load = p.dynamics.load if args.mass is None else args.mass * GRAVITY
     if p.coil.shape == 'conical':
@@ -422,8 +427,9 @@ def build_parser():
     sp.add_argument('--shape', default=None,
                     help='conical TCA: write the centreline CSV temperature,s,x,y,z (m) '
                          'here, and a PNG of the shapes beside it')
-    sp.add_argument('--max-samples', type=count, default=MAX_TEMPERATURES,
-                    help='refuse runs of more temperatures (limit on memory and time)')
+    sp.add_argument('--max-samples', type=count, default=None,
+                    help='refuse runs of more temperatures (limit on memory and time; '
+                         f'default {MAX_TEMPERATURES}, conical {MAX_CONICAL_SHAPES})')
     sp.set_defaults(func=cmd_statics)
 
     sp = sub.add_parser('simulate', formatter_class=fmt,

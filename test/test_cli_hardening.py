@@ -13,7 +13,7 @@ import time
 import numpy as np
 import pytest
 
-from tca_ros.cli import main, MAX_POWER_W, MESSAGE_CHARS
+from tca_ros.cli import main, MAX_CONICAL_SHAPES, MAX_POWER_W, MESSAGE_CHARS
 from tca_ros.diagnosis.residuals import heating_mask
 from tca_ros.model.params import config_dir
 
@@ -147,6 +147,16 @@ def test_long_profile_and_fast_physics_are_refused(tmp_path, capsys):
     assert_refused(run(SIMULATE + [long, '--rate', '1'], capsys), '1e+05 s', '--max-steps')
     assert_refused(run(['statics', '--model', 'cst', '--tstep', '1e-9'], capsys),
                    '--max-samples')
+
+
+def test_conical_statics_have_a_lower_limit_of_their_own(capsys):
+    # a rod shape per temperature costs ~0.1 s: 1351 of them would run for minutes
+    assert_refused(run(['statics', '--config', 'conical', '--tstep', '0.1'], capsys),
+                   '1351 rod shapes (conical)', f'the limit is {MAX_CONICAL_SHAPES}',
+                   '--max-samples')
+    # the helix limit is unchanged, and an explicit --max-samples applies to both
+    assert_refused(run(['statics', '--config', 'conical', '--tstep', '0.1', '--max-samples',
+                        '1000'], capsys), 'the limit is 1000')
 
 
 def test_limits_are_overridable(tmp_path, capsys):
