@@ -14,6 +14,7 @@ figures, not assertions.
 """
 import argparse
 import collections
+import json
 import os
 import random
 import resource
@@ -34,6 +35,10 @@ from tca_ros.cli import main, MESSAGE_CHARS  # noqa: E402
 from tca_ros.diagnosis import diagnose  # noqa: E402, F401 (loaded before forking)
 from tca_ros.diagnosis.data import read_record  # noqa: E402
 from tca_ros.model.params import config_dir  # noqa: E402
+# what the children import on their way: loaded once here, shared by every fork
+import tca_ros.diagnosis.calibration  # noqa: E402, F401, I100, I202
+import tca_ros.diagnosis.fitting  # noqa: E402, F401
+import tca_ros.model.rig_simulation  # noqa: E402, F401
 
 # A hang is a run past its stated limit, measured in CPU seconds of the child (the
 # machine is shared: wall time there says more about the neighbours than about tca_sim).
@@ -49,6 +54,7 @@ WEIGHTS = (0.4, 0.25, 0.15, 0.2)  # share of the cases per family
 # A diagnosis with the config's rod model costs 10-90 s of CPU even for a 3 s record (rod
 # tables), with cst 3-20 s: the input handling is the same, so most cases use cst.
 CST_SHARE = 0.8
+NO_CALIBRATE_SHARE = 0.7  # the calibration is 60 % of a small diagnosis; most skip it
 
 EVIL_NUMBERS = [
     '1e308', '-1e308', '1e999', '-1e999', 'nan', 'NaN', 'inf', '-inf', 'Infinity', '',
@@ -158,8 +164,9 @@ def _valid_record(rng, rate=None, n=None):
 
 
 def _diagnose_model(rng):
-    """Return the --model flags of a diagnose case: mostly cst (fast), some the config's."""
-    return ['--model', 'cst'] if rng.random() < CST_SHARE else []
+    """Return the --model / --no-calibrate flags of a diagnose case: mostly the fast ones."""
+    return (['--model', 'cst'] if rng.random() < CST_SHARE else []) \
+        + (['--no-calibrate'] if rng.random() < NO_CALIBRATE_SHARE else [])
 
 
 def diagnose_case(rng, folder):
@@ -404,7 +411,7 @@ def subprocess_check(argv, folder, res):
         proc.stderr.decode('utf-8', 'replace').strip()[:300] == res['err']
 
 
-def campaign(n_cases, seed, budget, jobs, verbose, only=None, sample=0.0):
+def campaign(n_cases, seed, budget, jobs, verbose, only=None, sample=0.0, log=None):
     rng = random.Random(seed)
     root = tempfile.mkdtemp(prefix='fuzz_cli_')
     bags = Bags(root)
@@ -421,6 +428,9 @@ def campaign(n_cases, seed, budget, jobs, verbose, only=None, sample=0.0):
     def finish(k, family, folder, argv, extra, res):
         res.update(family=family, argv=argv, **extra)
         results.append(res)
+        if log is not None:  # one JSON line per case, as it ends
+            log.write(json.dumps(dict(res, case=k, argv=[a[:200] for a in argv])) + '\n')
+            log.flush()
         if family == 'mcap' and extra.get('identical') and not res.get('reused'):
             reusable[tuple(argv[2:])] = res  # the diagnosis of the intact record
         if rng_sample.random() < sample and res['cpu'] < 5.0 and not res.get('reused'):
@@ -533,11 +543,15 @@ def main_fuzz(argv=None):
     parser.add_argument('--sample', type=float, default=0.03,
                         help='share of the quick cases rerun as a real process to check the '
                              'forked in-process run against it')
+    parser.add_argument('--log', default=None,
+                        help='append one JSON line per case to this file as it ends')
     parser.add_argument('--case', type=int, default=None,
                         help='rebuild and run only this case number; keep its files')
     args = parser.parse_args(argv)
+    log = open(args.log, 'a', encoding='utf-8') if args.log else None
     results, wall, skipped = campaign(args.cases, args.seed, args.budget, args.jobs,
-                                      args.verbose, only=args.case, sample=args.sample)
+                                      args.verbose, only=args.case, sample=args.sample,
+                                      log=log)
     table(results, wall, skipped)
 
 

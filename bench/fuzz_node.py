@@ -221,7 +221,7 @@ class Campaign:
         if not future.done():
             self.counts['unanswered'] += 1
             if self.args.verbose:
-                print(f'unanswered {type(request).__name__} after: {self.accepted[-3:]}')
+                print(f'unanswered {what} after: {self.accepted[-3:]}', flush=True)
             client.remove_pending_request(future)
             return None
         return future.result()
@@ -280,9 +280,11 @@ class Campaign:
     def run_segments(self):
         """Run half the budget with the config's rig, half with the antagonistic rig."""
         times = []
-        for k, extra in enumerate(SEGMENTS):
+        chosen = SEGMENTS if self.args.segment is None else [SEGMENTS[self.args.segment]]
+        for k, extra in enumerate(chosen):
             t0 = time.monotonic()
-            share = (lambda n: n // 2) if k == 0 else (lambda n: n - n // 2)
+            share = (lambda n: n // 2) if k == 0 and len(chosen) > 1 else \
+                (lambda n: n - n // 2 if len(chosen) > 1 else n)
             self.start(extra)
             self.run(share(self.args.messages), share(self.args.requests))
             self.node.stop()
@@ -380,8 +382,13 @@ def main(argv=None):
                     help='kinetostatic model of the node')
     ap.add_argument('--code', default='', help='run the node from this checkout (dir)')
     ap.add_argument('--verbose', action='store_true', help='print unanswered requests')
+    ap.add_argument('--segment', type=int, choices=(0, 1), default=None,
+                    help='run only this segment (0 dead weight, 1 antagonistic), whole budget')
+    ap.add_argument('--keep', default=None, help='keep the node logs in this directory')
     args = ap.parse_args(argv)
     with tempfile.TemporaryDirectory(prefix='tca_fuzz_') as tmp:
+        tmp = args.keep or tmp
+        os.makedirs(tmp, exist_ok=True)
         t0 = time.monotonic()
         campaign = Campaign(args, tmp)
         try:

@@ -356,7 +356,7 @@ def cmd_diagnose(args, out):
         raise InputError(f'--report = {clip(args.report)!r}: exists and is not a directory')
     if args.config:
         checked_config(args.config)
-    fit_rate = None
+    fit_rate, total = None, 0.0
     for data in args.data:
         is_bag = os.path.isdir(data) or str(data).endswith('.mcap')
         if not (args.config or not is_bag):
@@ -367,10 +367,14 @@ def cmd_diagnose(args, out):
             checked_config(record_config(record), option="'# tca:' header")
         physics = max(DIAGNOSIS_PHYSICS_HZ, record.sample_rate)
         steps = record.duration * physics
+        total += steps  # each fit simulates every record: the work adds up over them
         if not steps <= args.max_steps:
             raise InputError(f'{data}: {record.duration:.4g} s at {physics:.4g} Hz '
                              f'physics is {steps:.4g} steps per simulation; the limit is '
                              f'{args.max_steps} (--max-steps)')
+        if not total <= args.max_steps:
+            raise InputError(f'{data}: with the records before it, {total:.4g} physics steps '
+                             f'per simulation; the limit is {args.max_steps} (--max-steps)')
         if record.duration * DIAGNOSIS_FIT_HZ + 1.0 < MIN_FIT_SAMPLES:
             fit_rate = record.sample_rate  # a short record is fitted at its own rate
     if args.calibrated:
@@ -474,7 +478,8 @@ def build_parser():
     sp.add_argument('--max-samples', type=count, default=MAX_OUTPUT_SAMPLES,
                     help='refuse runs of more record samples (limit on memory and time)')
     sp.add_argument('--max-steps', type=count, default=MAX_DIAGNOSE_STEPS,
-                    help='refuse runs of more physics steps per simulation (limit on time)')
+                    help='refuse runs of more physics steps per simulation, all records '
+                         'together (limit on time)')
     sp.set_defaults(func=cmd_diagnose)
 
     sp = sub.add_parser('bench', formatter_class=fmt,

@@ -141,6 +141,16 @@ def test_very_slow_headers_are_refused(tmp_path, capsys, rate):
                    '--max-steps')
 
 
+def test_the_steps_limit_of_diagnose_counts_all_records_together(tmp_path, capsys):
+    # each fit simulates every record: N short records cost N times one, so the bound is on
+    # their sum (2.9 s at 200 Hz physics = 580 steps each)
+    one = record(tmp_path, name='a.csv')
+    two = record(tmp_path, name='b.csv')
+    assert_refused(run(['diagnose', one, two, '--quiet', '--max-steps', '1000'], capsys),
+                   'b.csv: with the records before it, 1160 physics steps',
+                   'the limit is 1000 (--max-steps)')
+
+
 def test_long_profile_and_fast_physics_are_refused(tmp_path, capsys):
     long = profile(tmp_path, 'time,power\n0,1\n100000,0\n')
     assert_refused(run(SIMULATE + [long], capsys), '1e+05 s', '--max-samples')
