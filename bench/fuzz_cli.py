@@ -411,7 +411,8 @@ def subprocess_check(argv, folder, res):
         proc.stderr.decode('utf-8', 'replace').strip()[:300] == res['err']
 
 
-def campaign(n_cases, seed, budget, jobs, verbose, only=None, sample=0.0, log=None):
+def campaign(n_cases, seed, budget, jobs, verbose, only=None, sample=0.0, log=None,
+             first=0):
     rng = random.Random(seed)
     root = tempfile.mkdtemp(prefix='fuzz_cli_')
     bags = Bags(root)
@@ -422,6 +423,7 @@ def campaign(n_cases, seed, budget, jobs, verbose, only=None, sample=0.0, log=No
     pending = list(enumerate(families))
     if only is not None:  # rebuild one case, keep its files, print them
         pending = [pending[only]]
+    pending = pending[first:]  # a campaign resumed where a budget stopped it
     running, results, reusable = {}, [], {}
     t_start = time.monotonic()
 
@@ -545,13 +547,15 @@ def main_fuzz(argv=None):
                              'forked in-process run against it')
     parser.add_argument('--log', default=None,
                         help='append one JSON line per case to this file as it ends')
+    parser.add_argument('--first', type=int, default=0,
+                        help='start at this case number (resume a campaign its budget stopped)')
     parser.add_argument('--case', type=int, default=None,
                         help='rebuild and run only this case number; keep its files')
     args = parser.parse_args(argv)
     log = open(args.log, 'a', encoding='utf-8') if args.log else None
     results, wall, skipped = campaign(args.cases, args.seed, args.budget, args.jobs,
                                       args.verbose, only=args.case, sample=args.sample,
-                                      log=log)
+                                      log=log, first=args.first)
     table(results, wall, skipped)
 
 

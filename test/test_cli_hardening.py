@@ -271,6 +271,18 @@ def test_record_header_cannot_name_an_arbitrary_path(tmp_path, capsys, tca):
                    "row 1, column 'tca'", 'pass --config PATH')
 
 
+@pytest.mark.parametrize('config', ['sub/free_stroke', 'missing_dir/free_stroke.yaml',
+                                    '/nonexistent/conical.yaml'])
+def test_a_missing_path_is_not_read_as_the_shipped_config(tmp_path, capsys, config):
+    # found by bench/fuzz_cli.py: the basename of any missing path fell back to a shipped
+    # file, so a mistyped directory silently ran the shipped parameters
+    path = profile(tmp_path, 'time,power\n0,1\n1,0\n')
+    assert_refused(run(SIMULATE + [path, '--config', config], capsys),
+                   f"config '{config}': no such file, and not a shipped name")
+    assert_refused(run(['diagnose', record(tmp_path), '--quiet', '--config', config], capsys),
+                   'not a shipped name')
+
+
 def test_record_header_may_name_a_params_file_beside_it(tmp_path):
     from tca_ros.diagnosis.data import read_record, record_config
     shutil.copy(pathlib.Path(config_dir()) / 'free_stroke.yaml', tmp_path / 'mine.yaml')
