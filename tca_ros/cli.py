@@ -17,11 +17,10 @@ import numpy as np
 
 from tca_ros.cli_common import checked_config, InputError
 from tca_ros.diagnosis.data import ABSOLUTE_ZERO_DEGC, clip, DataError, MAX_LOAD_N, \
-    MAX_POWER_W, NUMBER, parse_number, read_text_lines
+    MAX_POWER_W, MAX_TEMPERATURE_DEGC, NUMBER, parse_number, read_text_lines
 from tca_ros.model.params import GRAVITY, load_params, MODELS, ParameterError, RIG_MODES
 
 EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT = 0, 1, 2
-MAX_TEMPERATURE_DEGC = 1000.0  # statics bound: nylon melts near 260 degC, so far above
 # Work limits, overridable per run with --max-samples / --max-steps. `simulate` with cst
 # ran 300 k physics steps in 10-13 s on a loaded 2-core machine (load average 3.6), so
 # its limit stays under the 30 s a caller may take for a hang. A diagnosis costs about

@@ -232,6 +232,9 @@ def test_a_megabyte_value_is_not_echoed(tmp_path, capsys):
 @pytest.mark.parametrize('old, new, column', [
     ('0.5,0.2943', '1e308,0.2943', 'power'), ('0.5,0.2943', '0.5,1e308', 'load'),
     (',25.30', ',-300', 'temperature'),
+    # fuzz_cli case 144: a reading of 1e308 degC passed and made the fit fail (exit 1)
+    (',25.30', ',1e308', 'temperature'), (',25.30', ',1001', 'temperature'),
+    (',0.000300,', ',1e308,', 'displacement'), (',0.000300,', ',-11,', 'displacement'),
 ])
 def test_record_values_out_of_range_are_refused(tmp_path, capsys, old, new, column):
     path = tmp_path / 'rec.csv'
