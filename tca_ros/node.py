@@ -119,6 +119,7 @@ class TcaSimNode(Node):
         self._ticks_done = 0
         self._next_shape_ns = 0
         self._next_shape_wall = 0.0
+        self._stepping_paused_until = 0.0  # monotonic s: no catch-up before (overload)
 
         qos_opts = QoSOverridingOptions.with_default_policies()
         self._disp_pub = self.create_publisher(Float64, 'displacement', STATE_QOS,
@@ -201,7 +202,14 @@ class TcaSimNode(Node):
                 throttle_duration_sec=WARN_PERIOD)
             self._steps_done += n - limit
             n = limit
-        deadline = time.monotonic() + MAX_CATCH_UP_WALL
+        wall = time.monotonic()
+        if wall < self._stepping_paused_until:
+            # the last catch-up ran out of its budget: every callback (each command
+            # message steps too) would spend another budget and requests would wait
+            # behind them, so no stepping until the pause ends (physics skips to now)
+            self._steps_done += n
+            return
+        deadline = wall + MAX_CATCH_UP_WALL
         for start in range(0, n, CATCH_UP_CHUNK):
             if time.monotonic() > deadline:
                 # A physics_rate this machine cannot keep up with: drop physics time
@@ -210,6 +218,7 @@ class TcaSimNode(Node):
                     f'physics {(n - start) * self._sim.dt:.3g} s behind the clock after '
                     f'{MAX_CATCH_UP_WALL:g} s of stepping: skipped to now (lower '
                     'physics_rate?)', throttle_duration_sec=WARN_PERIOD)
+                self._stepping_paused_until = time.monotonic() + MAX_CATCH_UP_WALL
                 break
             self._advance(min(CATCH_UP_CHUNK, n - start))
         self._steps_done += n
