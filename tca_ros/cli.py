@@ -23,9 +23,12 @@ from tca_ros.model.params import GRAVITY, load_params, MODELS, ParameterError, R
 EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT = 0, 1, 2
 # Work limits, overridable per run with --max-samples / --max-steps. `simulate` with cst
 # ran 300 k physics steps in 10-13 s on a loaded 2-core machine (load average 3.6), so
-# its limit stays under the 30 s a caller may take for a hang. A diagnosis costs about
-# 1.3 ms per record-rate step (the shipped 240 s example at 200 Hz: 48 k steps, 63 s),
-# so its limit is about 2 to 3 minutes.
+# its limit stays under the 30 s a caller may take for a hang. A diagnosis costs CPU
+# time in proportion to its record-rate steps plus a fixed part (rod tables, ~600
+# simulations): the shipped 240 s example at 200 Hz physics (48 k steps, rod model)
+# took 246 s of CPU and 825 simulations; a 3 s record 4-20 s with cst, 11-84 s with the
+# rod model. At the 100 k steps of MAX_DIAGNOSE_STEPS that is about 8-9 min of CPU
+# with the rod model (measured under load average ~15; a quiet machine is faster).
 MAX_OUTPUT_SAMPLES = 1_000_000  # simulate / diagnose samples: about 50 MB of arrays
 MAX_SIM_STEPS = 300_000  # physics steps of one `simulate` run (5 min at 1 kHz)
 MAX_DIAGNOSE_STEPS = 100_000  # physics steps of one record-rate simulation in diagnose
