@@ -407,11 +407,10 @@ def build_case(family, k, seed, folder, bags, fixed):
 
 
 def subprocess_check(argv, folder, res):
-    """Rerun argv as a real `tca_sim` process; return True if exit and stderr agree."""
+    """Rerun argv as a real `tca_sim` process; return its (exit status, error line)."""
     proc = subprocess.run([sys.executable, '-m', 'tca_ros.cli', *argv], cwd=folder,
                           stdin=subprocess.DEVNULL, capture_output=True, timeout=WALL_CAP_S)
-    return proc.returncode == res['code'] and \
-        proc.stderr.decode('utf-8', 'replace').strip()[:300] == res['err']
+    return proc.returncode, proc.stderr.decode('utf-8', 'replace').strip()[:300]
 
 
 def campaign(n_cases, seed, budget, jobs, verbose, only=None, sample=0.0, log=None,
@@ -433,17 +432,21 @@ def campaign(n_cases, seed, budget, jobs, verbose, only=None, sample=0.0, log=No
     def finish(k, family, folder, argv, extra, res):
         res.update(family=family, argv=argv, **extra)
         results.append(res)
-        if log is not None:  # one JSON line per case, as it ends
-            log.write(json.dumps(dict(res, case=k, argv=[a[:200] for a in argv])) + '\n')
-            log.flush()
         if family == 'mcap' and extra.get('identical') and not res.get('reused'):
             reusable[tuple(argv[2:])] = res  # the diagnosis of the intact record
         if rng_sample.random() < sample and res['cpu'] < 5.0 and not res.get('reused'):
-            res['subprocess_agrees'] = subprocess_check(argv, folder, res)
+            code, err = subprocess_check(argv, folder, res)
+            res['subprocess_agrees'] = code == res['code'] and err == res['err']
+            if not res['subprocess_agrees']:
+                res['subprocess'] = [code, err]
+        if log is not None:  # one JSON line per case, as it ends
+            log.write(json.dumps(dict(res, case=k, argv=[a[:200] for a in argv])) + '\n')
+            log.flush()
         if verbose and (res['traceback'] or res['internal'] or res['code'] == 'hang'
                         or res['nan_ok'] or res['not_one_line'] or res['long_err']
                         or res['code'] == 1 or res.get('subprocess_agrees') is False):
-            print(f'case {k} {family}: {res["code"]} {argv!r:.300}\n    {res["err"]}',
+            print(f'case {k} {family}: {res["code"]} {argv!r:.300}\n    {res["err"]}'
+                  + (f'\n    subprocess: {res["subprocess"]}' if 'subprocess' in res else ''),
                   flush=True)
         if only is None:
             shutil.rmtree(folder, ignore_errors=True)
@@ -482,7 +485,7 @@ def campaign(n_cases, seed, budget, jobs, verbose, only=None, sample=0.0, log=No
             finish(k, family, folder, argv, extra, res)
     if only is None:
         shutil.rmtree(root, ignore_errors=True)
-    return results, time.monotonic() - t_start, len(families) - len(results)
+    return results, time.monotonic() - t_start, len(pending)  # pending: not started (budget)
 
 
 def _same_record(path, intact):
