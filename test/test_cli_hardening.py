@@ -229,6 +229,17 @@ def test_a_megabyte_value_is_not_echoed(tmp_path, capsys):
     assert_refused(run(SIMULATE + [profile(tmp_path, bad)], capsys), "'yyyy", '...')
 
 
+@pytest.mark.parametrize('mass', ['5e-324', '1e-9', '1e308'])
+def test_a_record_mass_the_model_cannot_step_is_refused(tmp_path, capsys, mass):
+    # fuzz_cli case 874: '# mass_kg: 4.94e-324' passed the reader, then the nominal
+    # simulation refused it (> 1000 substeps) with exit 1
+    path = tmp_path / 'rec.csv'
+    path.write_text(pathlib.Path(record(tmp_path)).read_text().replace(
+        '# mass_kg: 0.03', f'# mass_kg: {mass}'))
+    assert_refused(run(['diagnose', str(path), '--quiet'], capsys), "row 2, column 'mass_kg'",
+                   'allowed 0 (quasi-static) or 1e-06 to 1000 kg')
+
+
 @pytest.mark.parametrize('old, new, column', [
     ('0.5,0.2943', '1e308,0.2943', 'power'), ('0.5,0.2943', '0.5,1e308', 'load'),
     (',25.30', ',-300', 'temperature'),

@@ -50,6 +50,8 @@ BAG_TYPES = {'power': 'std_msgs/msg/Float64', 'power_cmd': 'std_msgs/msg/Float64
 MAX_POWER_W = 1e3  # power bound: 200x the node's default driver limit (max_power 5 W)
 MAX_LOAD_N = SPECS['dynamics.load'].high  # the params schema's dynamics.load range (N)
 ABSOLUTE_ZERO_DEGC = -273.15
+MIN_MASS_KG = 1e-6  # a moving mass below a milligram: 0 (quasi-static) is meant
+MAX_MASS_KG = SPECS['dynamics.mass'].high  # the params schema's dynamics.mass range (kg)
 MAX_TEMPERATURE_DEGC = 1000.0  # nylon melts near 260 degC: a hotter reading is no TCA's
 MAX_DISPLACEMENT_M = 10.0  # |x| bound: about 100 times a TCA's length
 MAX_RESISTANCE_OHM = 1e6  # a heater wire reads ohms to kilohms; beyond this it is open
@@ -314,6 +316,11 @@ def _check_meta(meta, path, meta_rows):
             raise DataError(f'{path}: row {meta_rows[key]}, column {key!r}: {value:g} must '
                             f'be >= {low:g}')
         meta[key] = value
+    mass = meta['mass_kg']
+    if mass != 0.0 and not MIN_MASS_KG <= mass <= MAX_MASS_KG:
+        # a subnormal mass passed and the simulation refused it (> 1000 substeps), exit 1
+        raise DataError(f"{path}: row {meta_rows['mass_kg']}, column 'mass_kg': {mass:g} kg; "
+                        f'allowed 0 (quasi-static) or {MIN_MASS_KG:g} to {MAX_MASS_KG:g} kg')
 
 
 def _check_span(time, rate, row_numbers, path, max_samples):
