@@ -331,8 +331,11 @@ class TcaSimNode(Node):
                 now_ns - self._last_command_ns > timeout * _NS:
             if not self._watchdog_tripped:
                 self._watchdog_tripped = True
+                # throttled: a command_timeout shorter than the command period trips
+                # and clears the watchdog at every message (fuzz_node: 30 lines/s)
                 self.get_logger().warning(
-                    f'no power or voltage command for {timeout:g} s: power set to 0')
+                    f'no power or voltage command for {timeout:g} s: power set to 0',
+                    throttle_duration_sec=WARN_PERIOD)
             return 0.0
         kind, value = self._drive
         if kind == 'voltage':
@@ -559,7 +562,8 @@ class TcaSimNode(Node):
         self._drive = (kind, value)
         if self._watchdog_tripped:
             self._watchdog_tripped = False
-            self.get_logger().info('commands are back: watchdog cleared')
+            self.get_logger().info('commands are back: watchdog cleared',
+                                   throttle_duration_sec=WARN_PERIOD)
         if self._awaiting_command:
             self._awaiting_command = False
             self._run_ticks()

@@ -271,3 +271,21 @@ def test_after_a_catch_up_cut_short_the_next_callbacks_do_not_step(tca, monkeypa
     tca._catch_up()
     assert len(steps) > first
     assert not tca._broken
+
+
+def test_a_watchdog_shorter_than_the_command_period_does_not_flood_the_log(tca):
+    """Trip and clear messages are throttled (fuzz_node: command_timeout 5e-324 s)."""
+    calls = []
+
+    class Logger:
+        def __getattr__(self, level):
+            return lambda message, **kw: calls.append((message, kw))
+    tca.get_logger = Logger
+    tca._cfg = dict(tca._cfg, command_timeout=5e-324)
+    for k in range(3):
+        tca._command('power', 0.5)
+        tca._command_power(tca._last_command_ns + 1_000_000)  # 1 ms later: tripped
+    watchdog = [kw for message, kw in calls
+                if 'no power or voltage command' in message or 'watchdog cleared' in message]
+    assert len(watchdog) == 5  # trip, clear, trip, clear, trip (rclpy drops the repeats)
+    assert all(kw.get('throttle_duration_sec', 0.0) >= 1.0 for kw in watchdog), watchdog
