@@ -17,20 +17,25 @@ import numpy as np
 
 from tca_ros.cli_common import checked_config, finite_float, InputError
 from tca_ros.diagnosis.data import ABSOLUTE_ZERO_DEGC, clip, DataError, MAX_LOAD_N, \
-    MAX_POWER_W, parse_number, read_text_lines
+    MAX_POWER_W, MAX_TEMPERATURE_DEGC, parse_number, read_text_lines
 from tca_ros.model.params import GRAVITY, load_params, MODELS, ParameterError, RIG_MODES
 
 EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT = 0, 1, 2
-MAX_TEMPERATURE_DEGC = 1000.0  # statics bound: nylon melts near 260 degC, so far above
 # Work limits, overridable per run with --max-samples / --max-steps. `simulate` with cst
 # ran 300 k physics steps in 10-13 s on a loaded 2-core machine (load average 3.6), so
-# its limit stays under the 30 s a caller may take for a hang. A diagnosis costs about
-# 1.3 ms per record-rate step (the shipped 240 s example at 200 Hz: 48 k steps, 63 s),
-# so its limit is about 2 to 3 minutes.
+# its limit stays under the 30 s a caller may take for a hang. A diagnosis costs CPU
+# time in proportion to its record-rate steps plus a fixed part (rod tables, ~600
+# simulations): the shipped 240 s example at 200 Hz physics (48 k steps, rod model)
+# took 246 s of CPU and 825 simulations; a 3 s record 4-20 s with cst, 11-84 s with the
+# rod model. At the 100 k steps of MAX_DIAGNOSE_STEPS that is about 8-9 min of CPU
+# with the rod model (measured under load average ~15; a quiet machine is faster).
 MAX_OUTPUT_SAMPLES = 1_000_000  # simulate / diagnose samples: about 50 MB of arrays
 MAX_SIM_STEPS = 300_000  # physics steps of one `simulate` run (5 min at 1 kHz)
 MAX_DIAGNOSE_STEPS = 100_000  # physics steps of one record-rate simulation in diagnose
-MAX_TEMPERATURES = 10_000  # statics rows (each a nonlinear solve, a rod shape if conical)
+MAX_TEMPERATURES = 10_000  # statics rows of a helix (each a nonlinear solve): 13 s CPU
+# A conical TCA's statics solves one rod shape per temperature, about 0.11 s of CPU each
+# (101 temperatures: 13.6 s on the 2-core machine), so its default limit is far lower.
+MAX_CONICAL_SHAPES = 250
 MESSAGE_CHARS = 400  # an error line is cut here: never echo megabytes of input
 DIAGNOSIS_PHYSICS_HZ = 200.0  # diagnose's record-rate physics rate floor (fitting.py)
 DIAGNOSIS_FIT_HZ = 10.0  # diagnose's default fit-grid rate (fitting.FIT_RATE_HZ)
@@ -174,11 +179,6 @@ def cmd_statics(args, out):
     if args.tmin < ABSOLUTE_ZERO_DEGC or args.tmax > MAX_TEMPERATURE_DEGC:
         raise InputError(f'--tmin = {args.tmin:g}, --tmax = {args.tmax:g} degC: allowed '
                          f'{ABSOLUTE_ZERO_DEGC:g} to {MAX_TEMPERATURE_DEGC:g} degC')
-    rows = (args.tmax - args.tmin) / args.tstep + 1.0
-    if not rows <= args.max_samples:
-        raise InputError(f'--tmin {args.tmin:g} --tmax {args.tmax:g} --tstep {args.tstep:g} '
-                         f'give {rows:.4g} temperatures; the limit is {args.max_samples} '
-                         '(--max-samples)')
     if args.mass is not None and not 0.0 <= args.mass * GRAVITY <= MAX_LOAD_N:
         raise InputError(f'--mass = {args.mass:g} kg: allowed 0 to '
                          f'{MAX_LOAD_N / GRAVITY:.4g} kg (load 0 to {MAX_LOAD_N:g} N)')
@@ -188,6 +188,13 @@ def cmd_statics(args, out):
             raise InputError(f'--shape = {clip(args.shape)!r}: directory {clip(folder)!r} '
                              'does not exist')
     p = _params(args)
+    limit = args.max_samples or (MAX_CONICAL_SHAPES if p.coil.shape == 'conical'
+                                 else MAX_TEMPERATURES)
+    rows = (args.tmax - args.tmin) / args.tstep + 1.0
+    if not rows <= limit:
+        what = 'rod shapes (conical)' if p.coil.shape == 'conical' else 'temperatures'
+        raise InputError(f'--tmin {args.tmin:g} --tmax {args.tmax:g} --tstep {args.tstep:g} '
+                         f'give {rows:.4g} {what}; the limit is {limit} (--max-samples)')
     temps = np.arange(args.tmin, args.tmax + 0.5 * args.tstep, args.tstep)
     load = p.dynamics.load if args.mass is None else args.mass * GRAVITY
     if p.coil.shape == 'conical':
@@ -340,7 +347,7 @@ def cmd_diagnose(args, out):
         raise InputError(f'--report = {clip(args.report)!r}: exists and is not a directory')
     if args.config:
         checked_config(args.config)
-    fit_rate = None
+    fit_rate, total = None, 0.0
     for data in args.data:
         is_bag = os.path.isdir(data) or str(data).endswith('.mcap')
         if not (args.config or not is_bag):
@@ -351,10 +358,14 @@ def cmd_diagnose(args, out):
             checked_config(record_config(record), option="'# tca:' header")
         physics = max(DIAGNOSIS_PHYSICS_HZ, record.sample_rate)
         steps = record.duration * physics
+        total += steps  # each fit simulates every record: the work adds up over them
         if not steps <= args.max_steps:
             raise InputError(f'{data}: {record.duration:.4g} s at {physics:.4g} Hz '
                              f'physics is {steps:.4g} steps per simulation; the limit is '
                              f'{args.max_steps} (--max-steps)')
+        if not total <= args.max_steps:
+            raise InputError(f'{data}: with the records before it, {total:.4g} physics steps '
+                             f'per simulation; the limit is {args.max_steps} (--max-steps)')
         if record.duration * DIAGNOSIS_FIT_HZ + 1.0 < MIN_FIT_SAMPLES:
             fit_rate = record.sample_rate  # a short record is fitted at its own rate
     if args.calibrated:
@@ -411,8 +422,9 @@ def build_parser():
     sp.add_argument('--shape', default=None,
                     help='conical TCA: write the centreline CSV temperature,s,x,y,z (m) '
                          'here, and a PNG of the shapes beside it')
-    sp.add_argument('--max-samples', type=count, default=MAX_TEMPERATURES,
-                    help='refuse runs of more temperatures (limit on memory and time)')
+    sp.add_argument('--max-samples', type=count, default=None,
+                    help='refuse runs of more temperatures (limit on memory and time; '
+                         f'default {MAX_TEMPERATURES}, conical {MAX_CONICAL_SHAPES})')
     sp.set_defaults(func=cmd_statics)
 
     sp = sub.add_parser('simulate', formatter_class=fmt,
@@ -457,7 +469,8 @@ def build_parser():
     sp.add_argument('--max-samples', type=count, default=MAX_OUTPUT_SAMPLES,
                     help='refuse runs of more record samples (limit on memory and time)')
     sp.add_argument('--max-steps', type=count, default=MAX_DIAGNOSE_STEPS,
-                    help='refuse runs of more physics steps per simulation (limit on time)')
+                    help='refuse runs of more physics steps per simulation, all records '
+                         'together (limit on time)')
     sp.set_defaults(func=cmd_diagnose)
 
     sp = sub.add_parser('bench', formatter_class=fmt,

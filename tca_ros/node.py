@@ -112,6 +112,7 @@ class TcaSimNode(ClockMixin, OutputsMixin, ParametersMixin, Node):
         self._ticks_done = 0
         self._next_shape_ns = 0
         self._next_shape_wall = 0.0
+        self._stepping_paused_until = 0.0  # monotonic s: no catch-up before (overload)
 
         qos_opts = QoSOverridingOptions.with_default_policies()
         self._disp_pub = self.create_publisher(Float64, 'displacement', STATE_QOS,
@@ -165,8 +166,11 @@ class TcaSimNode(ClockMixin, OutputsMixin, ParametersMixin, Node):
                 now_ns - self._last_command_ns > timeout * NS:
             if not self._watchdog_tripped:
                 self._watchdog_tripped = True
+                # throttled: a command_timeout shorter than the command period trips
+                # and clears the watchdog at every message (fuzz_node: 30 lines/s)
                 self.get_logger().warning(
-                    f'no power or voltage command for {timeout:g} s: power set to 0')
+                    f'no power or voltage command for {timeout:g} s: power set to 0',
+                    throttle_duration_sec=WARN_PERIOD)
             return 0.0
         kind, value = self._drive
         if kind == 'voltage':
@@ -280,7 +284,8 @@ class TcaSimNode(ClockMixin, OutputsMixin, ParametersMixin, Node):
         self._drive = (kind, value)
         if self._watchdog_tripped:
             self._watchdog_tripped = False
-            self.get_logger().info('commands are back: watchdog cleared')
+            self.get_logger().info('commands are back: watchdog cleared',
+                                   throttle_duration_sec=WARN_PERIOD)
         if self._awaiting_command:
             self._awaiting_command = False
             self._run_ticks()

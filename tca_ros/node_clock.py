@@ -74,7 +74,14 @@ class ClockMixin:
                 throttle_duration_sec=WARN_PERIOD)
             self._steps_done += n - limit
             n = limit
-        deadline = time.monotonic() + MAX_CATCH_UP_WALL
+        wall = time.monotonic()
+        if wall < self._stepping_paused_until:
+            # the last catch-up ran out of its budget: every callback (each command
+            # message steps too) would spend another budget and requests would wait
+            # behind them, so no stepping until the pause ends (physics skips to now)
+            self._steps_done += n
+            return
+        deadline = wall + MAX_CATCH_UP_WALL
         for start in range(0, n, CATCH_UP_CHUNK):
             if time.monotonic() > deadline:
                 # A physics_rate this machine cannot keep up with: drop physics time
@@ -83,6 +90,7 @@ class ClockMixin:
                     f'physics {(n - start) * self._sim.dt:.3g} s behind the clock after '
                     f'{MAX_CATCH_UP_WALL:g} s of stepping: skipped to now (lower '
                     'physics_rate?)', throttle_duration_sec=WARN_PERIOD)
+                self._stepping_paused_until = time.monotonic() + MAX_CATCH_UP_WALL
                 break
             self._advance(min(CATCH_UP_CHUNK, n - start))
         self._steps_done += n

@@ -82,7 +82,8 @@ class RigTopics:
         if stale and not self._timed_out:
             self._timed_out = True
             self._node.get_logger().warning(
-                f'no antagonist/power_cmd for {timeout:g} s: antagonist power set to 0')
+                f'no antagonist/power_cmd for {timeout:g} s: antagonist power set to 0',
+                throttle_duration_sec=WARN_PERIOD)
         sim.power_2 = 0.0 if broken or stale else min(self._power_2, settings['max_power'])
 
     def hottest(self, sim):

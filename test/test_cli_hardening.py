@@ -13,7 +13,7 @@ import time
 import numpy as np
 import pytest
 
-from tca_ros.cli import main, MAX_POWER_W, MESSAGE_CHARS
+from tca_ros.cli import main, MAX_CONICAL_SHAPES, MAX_POWER_W, MESSAGE_CHARS
 from tca_ros.diagnosis.residuals import heating_mask
 from tca_ros.model.params import config_dir
 
@@ -141,12 +141,32 @@ def test_very_slow_headers_are_refused(tmp_path, capsys, rate):
                    '--max-steps')
 
 
+def test_the_steps_limit_of_diagnose_counts_all_records_together(tmp_path, capsys):
+    # each fit simulates every record: N short records cost N times one, so the bound is on
+    # their sum (2.9 s at 200 Hz physics = 580 steps each)
+    one = record(tmp_path, name='a.csv')
+    two = record(tmp_path, name='b.csv')
+    assert_refused(run(['diagnose', one, two, '--quiet', '--max-steps', '1000'], capsys),
+                   'b.csv: with the records before it, 1160 physics steps',
+                   'the limit is 1000 (--max-steps)')
+
+
 def test_long_profile_and_fast_physics_are_refused(tmp_path, capsys):
     long = profile(tmp_path, 'time,power\n0,1\n100000,0\n')
     assert_refused(run(SIMULATE + [long], capsys), '1e+05 s', '--max-samples')
     assert_refused(run(SIMULATE + [long, '--rate', '1'], capsys), '1e+05 s', '--max-steps')
     assert_refused(run(['statics', '--model', 'cst', '--tstep', '1e-9'], capsys),
                    '--max-samples')
+
+
+def test_conical_statics_have_a_lower_limit_of_their_own(capsys):
+    # a rod shape per temperature costs ~0.1 s: 1351 of them would run for minutes
+    assert_refused(run(['statics', '--config', 'conical', '--tstep', '0.1'], capsys),
+                   '1351 rod shapes (conical)', f'the limit is {MAX_CONICAL_SHAPES}',
+                   '--max-samples')
+    # the helix limit is unchanged, and an explicit --max-samples applies to both
+    assert_refused(run(['statics', '--config', 'conical', '--tstep', '0.1', '--max-samples',
+                        '1000'], capsys), 'the limit is 1000')
 
 
 def test_limits_are_overridable(tmp_path, capsys):
@@ -209,9 +229,23 @@ def test_a_megabyte_value_is_not_echoed(tmp_path, capsys):
     assert_refused(run(SIMULATE + [profile(tmp_path, bad)], capsys), "'yyyy", '...')
 
 
+@pytest.mark.parametrize('mass', ['5e-324', '1e-9', '1e308'])
+def test_a_record_mass_the_model_cannot_step_is_refused(tmp_path, capsys, mass):
+    # fuzz_cli case 874: '# mass_kg: 4.94e-324' passed the reader, then the nominal
+    # simulation refused it (> 1000 substeps) with exit 1
+    path = tmp_path / 'rec.csv'
+    path.write_text(pathlib.Path(record(tmp_path)).read_text().replace(
+        '# mass_kg: 0.03', f'# mass_kg: {mass}'))
+    assert_refused(run(['diagnose', str(path), '--quiet'], capsys), "row 2, column 'mass_kg'",
+                   'allowed 0 (quasi-static) or 1e-06 to 1000 kg')
+
+
 @pytest.mark.parametrize('old, new, column', [
     ('0.5,0.2943', '1e308,0.2943', 'power'), ('0.5,0.2943', '0.5,1e308', 'load'),
     (',25.30', ',-300', 'temperature'),
+    # fuzz_cli case 144: a reading of 1e308 degC passed and made the fit fail (exit 1)
+    (',25.30', ',1e308', 'temperature'), (',25.30', ',1001', 'temperature'),
+    (',0.000300,', ',1e308,', 'displacement'), (',0.000300,', ',-11,', 'displacement'),
 ])
 def test_record_values_out_of_range_are_refused(tmp_path, capsys, old, new, column):
     path = tmp_path / 'rec.csv'
@@ -249,6 +283,18 @@ def test_garbage_mcap_beside_a_valid_bag_is_refused(tmp_path, capsys):
 def test_record_header_cannot_name_an_arbitrary_path(tmp_path, capsys, tca):
     assert_refused(run(['diagnose', record(tmp_path, tca=tca), '--quiet'], capsys),
                    "row 1, column 'tca'", 'pass --config PATH')
+
+
+@pytest.mark.parametrize('config', ['sub/free_stroke', 'missing_dir/free_stroke.yaml',
+                                    '/nonexistent/conical.yaml'])
+def test_a_missing_path_is_not_read_as_the_shipped_config(tmp_path, capsys, config):
+    # found by bench/fuzz_cli.py: the basename of any missing path fell back to a shipped
+    # file, so a mistyped directory silently ran the shipped parameters
+    path = profile(tmp_path, 'time,power\n0,1\n1,0\n')
+    assert_refused(run(SIMULATE + [path, '--config', config], capsys),
+                   f"config '{config}': no such file, and not a shipped name")
+    assert_refused(run(['diagnose', record(tmp_path), '--quiet', '--config', config], capsys),
+                   'not a shipped name')
 
 
 def test_record_header_may_name_a_params_file_beside_it(tmp_path):

@@ -237,3 +237,55 @@ def test_a_physics_rate_the_machine_cannot_keep_up_with_leaves_the_node_responsi
     warnings = [m for level, m in tca.test_log.lines if level == 'warning']
     assert any('skipped to now' in m for m in warnings), warnings
     assert not tca._broken
+
+
+def test_after_a_catch_up_cut_short_the_next_callbacks_do_not_step(tca, monkeypatch):
+    """A catch-up out of budget pauses stepping for one budget (fake clock, issue 10).
+
+    fuzz_node, antagonistic rig on a starved machine: every command message stepped
+    for a whole budget too, and 43 of 400 requests waited past 3 s behind them.
+    """
+    import types
+    from tca_ros import node_clock
+    from tca_ros.node_clock import CATCH_UP_CHUNK, MAX_CATCH_UP_WALL
+    clock = [100.0]  # s, the node's monotonic clock
+    monkeypatch.setattr(node_clock, 'time', types.SimpleNamespace(monotonic=lambda: clock[0]))
+    real_step = tca._sim.step
+    steps = []
+
+    def slow_step(power, load=None):
+        clock[0] += 1e-3  # 1 ms of wall time a step: the machine cannot keep up
+        steps.append(clock[0])
+        return real_step(power, load)
+    tca._catch_up()
+    tca._sim.step = slow_step
+    tca._t0_ns -= 1_000_000_000  # 1 s of physics behind
+    tca._catch_up()
+    first = len(steps)
+    assert 0 < first <= MAX_CATCH_UP_WALL / 1e-3 + CATCH_UP_CHUNK
+    tca._t0_ns -= 100_000_000  # a command callback right after, 0.1 s more behind
+    tca._catch_up()
+    assert len(steps) == first  # paused: nothing stepped, the physics skipped to now
+    clock[0] += MAX_CATCH_UP_WALL + 1e-3  # the pause is over
+    tca._t0_ns -= 10_000_000
+    tca._catch_up()
+    assert len(steps) > first
+    assert not tca._broken
+
+
+def test_a_watchdog_shorter_than_the_command_period_does_not_flood_the_log(tca):
+    """Trip and clear messages are throttled (fuzz_node: command_timeout 5e-324 s)."""
+    calls = []
+
+    class Logger:
+        def __getattr__(self, level):
+            return lambda message, **kw: calls.append((message, kw))
+    tca.get_logger = Logger
+    tca._cfg = dict(tca._cfg, command_timeout=5e-324)
+    for k in range(3):
+        tca._command('power', 0.5)
+        tca._command_power(tca._last_command_ns + 1_000_000)  # 1 ms later: tripped
+    watchdog = [kw for message, kw in calls
+                if 'no power or voltage command' in message or 'watchdog cleared' in message]
+    assert len(watchdog) == 5  # trip, clear, trip, clear, trip (rclpy drops the repeats)
+    assert all(kw.get('throttle_duration_sec', 0.0) >= 1.0 for kw in watchdog), watchdog

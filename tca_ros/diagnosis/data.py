@@ -50,12 +50,21 @@ BAG_TYPES = {'power': 'std_msgs/msg/Float64', 'power_cmd': 'std_msgs/msg/Float64
 MAX_POWER_W = 1e3  # power bound: 200x the node's default driver limit (max_power 5 W)
 MAX_LOAD_N = SPECS['dynamics.load'].high  # the params schema's dynamics.load range (N)
 ABSOLUTE_ZERO_DEGC = -273.15
-# allowed values (low, high, unit): power is dissipated (>= 0), load is tensile
+MIN_MASS_KG = 1e-6  # a moving mass below a milligram: 0 (quasi-static) is meant
+MAX_MASS_KG = SPECS['dynamics.mass'].high  # the params schema's dynamics.mass range (kg)
+MAX_TEMPERATURE_DEGC = 1000.0  # nylon melts near 260 degC: a hotter reading is no TCA's
+MAX_DISPLACEMENT_M = 10.0  # |x| bound: about 100 times a TCA's length
+MAX_RESISTANCE_OHM = 1e6  # a heater wire reads ohms to kilohms; beyond this it is open
+# allowed values (low, high, unit): power is dissipated (>= 0), load is tensile. A value
+# past a physical bound (bench/fuzz_cli.py: a temperature of 1e308) only made the fit's
+# residuals non-finite and the diagnosis fail (exit 1) instead of naming the row.
 VALUE_RANGES = {'power': (0.0, MAX_POWER_W, 'W'), 'power_cmd': (0.0, MAX_POWER_W, 'W'),
-                'load': (0.0, MAX_LOAD_N, 'N'), 'resistance': (0.0, math.inf, 'ohm'),
+                'load': (0.0, MAX_LOAD_N, 'N'),
+                'resistance': (0.0, MAX_RESISTANCE_OHM, 'ohm'),
                 # a gauge reads a slack muscle slightly negative: both signs allowed
                 'force': (-MAX_LOAD_N, MAX_LOAD_N, 'N'),
-                'temperature': (ABSOLUTE_ZERO_DEGC, math.inf, 'degC')}
+                'displacement': (-MAX_DISPLACEMENT_M, MAX_DISPLACEMENT_M, 'm'),
+                'temperature': (ABSOLUTE_ZERO_DEGC, MAX_TEMPERATURE_DEGC, 'degC')}
 DEFAULT_JOINT = 'tca_joint'  # the node's default joint_name
 TIME, DISPLACEMENT = 'time', 'displacement'  # column names quoted in errors
 
@@ -307,6 +316,11 @@ def _check_meta(meta, path, meta_rows):
             raise DataError(f'{path}: row {meta_rows[key]}, column {key!r}: {value:g} must '
                             f'be >= {low:g}')
         meta[key] = value
+    mass = meta['mass_kg']
+    if mass != 0.0 and not MIN_MASS_KG <= mass <= MAX_MASS_KG:
+        # a subnormal mass passed and the simulation refused it (> 1000 substeps), exit 1
+        raise DataError(f"{path}: row {meta_rows['mass_kg']}, column 'mass_kg': {mass:g} kg; "
+                        f'allowed 0 (quasi-static) or {MIN_MASS_KG:g} to {MAX_MASS_KG:g} kg')
 
 
 def _check_span(time, rate, row_numbers, path, max_samples):

@@ -592,12 +592,19 @@ def config_dir():
 
 
 def resolve_config(name_or_path):
-    """Return the path of a params file given a path or a shipped name (``free_stroke``)."""
+    """Return the path of a params file given a path or a shipped name (``free_stroke``).
+
+    A shipped name is a bare name (``free_stroke`` or ``free_stroke.yaml``): a path
+    with a directory that does not exist is refused, never read as the shipped file
+    of the same name (a mistyped ``mydir/free_stroke.yaml`` would silently run the
+    shipped parameters instead of the user's).
+    """
     if os.path.isfile(name_or_path):
         return name_or_path
-    stem = os.path.splitext(os.path.basename(name_or_path))[0]
+    bare = os.path.basename(name_or_path) == name_or_path and '\\' not in name_or_path
+    stem = os.path.splitext(name_or_path)[0]
     path = os.path.join(config_dir(), stem + '.yaml')
-    if os.path.isfile(path):
+    if bare and os.path.isfile(path):
         return path
     raise ParameterError(
         f"config '{name_or_path}': no such file, and not a shipped name "
