@@ -5,7 +5,6 @@ import numpy as np
 import pytest
 
 from tca_ros.diagnosis.candidates import ParameterSpace
-from tca_ros.diagnosis.fitting import penalised_gain
 from tca_ros.diagnosis.residuals import cross_correlation_lag, effective_samples, \
     ljung_box, noise_sigma, spectral_flatness
 
@@ -40,13 +39,8 @@ def test_cross_correlation_finds_a_known_lag():
     assert best == pytest.approx(0.25)
 
 
-def test_penalty_rejects_equal_fits_and_accepts_large_gains():
+def test_effective_samples_of_autocorrelated_residuals():
     n = 1000
-    assert penalised_gain(1000.0, 1000.0, n, 0.0, 1) < 0.0
-    assert penalised_gain(1000.0, 995.0, n, 0.0, 1) < 0.0  # 0.5 % of cost: chance
-    assert penalised_gain(4000.0, 1000.0, n, 0.0, 1) > 0.0
-    # the same gain on strongly autocorrelated residuals is worth less
-    assert penalised_gain(1100.0, 1000.0, n, 0.95, 1) < penalised_gain(1100.0, 1000.0, n, 0.0, 1)
     assert effective_samples(n, 0.0) == n and effective_samples(n, 0.5) == pytest.approx(n / 3)
 
 

@@ -32,8 +32,8 @@ import time as wallclock
 import numpy as np
 from scipy.optimize import least_squares
 
-from tca_ros.diagnosis.noise import quantisation_sigma
-from tca_ros.diagnosis.residuals import effective_samples, lag_one_autocorrelation, noise_sigma
+from tca_ros.diagnosis.noise import heldout_deviance_gain, quantisation_sigma
+from tca_ros.diagnosis.residuals import lag_one_autocorrelation, noise_sigma
 from tca_ros.model.dynamics import simulate
 from tca_ros.model.params import SPECS
 from tca_ros.model.quasistatic import QuasiStaticUnsupported, simulate_quasistatic
@@ -325,6 +325,22 @@ class FitProblem:
         r = self.normalised_residuals(prediction, self.split, self.m)
         return float(r @ r), rmse, n, float(np.mean(rhos))
 
+    def heldout_residuals(self, values):
+        """Return [{channel: measured - predicted}] on the coarse held-out part, or None.
+
+        One dict per record (channel units); rates in ``coarse_rates``.
+        """
+        prediction = self.simulate_coarse(values)
+        if prediction is None:
+            return None
+        return [{c: self.coarse_measured[c][self.split:] - prediction[c][self.split:]
+                 for c in self.channels}]
+
+    @property
+    def coarse_rates(self):
+        """Return [coarse-grid rate (Hz)] per record."""
+        return [self.sample_rate / self.k]
+
     # -- fitting --------------------------------------------------------------------
     def screen(self, candidate):
         """Return [(train cost, start values, cost per channel)], best first.
@@ -420,20 +436,27 @@ def _standard_errors(spaces, z, residual, jac):
     return out
 
 
-def penalised_gain(base_cost, cand_cost, n, rho, added_params):
-    """Return the BIC-penalised log-likelihood gain of a candidate on held-out data.
+def noise_model_gain(problem, base_residuals, values, added_params):
+    """Return the BIC-penalised held-out gain of ``values`` under the verdict's noise model.
 
-        n_eff = n (1 - rho) / (1 + rho)
-        gain  = n_eff ln(S_base / S_cand) - k ln(n_eff)
+        D - k ln(n)
 
-    S are held-out sums of squared noise-normalised residuals, rho their lag-1
-    autocorrelation under the candidate, k the added parameters. Positive means
-    the improvement is more than k extra parameters would buy by chance.
+    D from noise.heldout_deviance_gain (per record an offset and a drift are
+    noise, the rest AR(p) noise: the model the verdict judges residuals by),
+    n its sample count, k the added parameters. Positive: the candidate
+    predicts the held-out part better than k parameters fitted to noise would.
+    ``base_residuals`` is ``problem.heldout_residuals`` of the base.
     """
-    if not (cand_cost > 0.0 and base_cost > 0.0):
+    cand = problem.heldout_residuals(values)
+    if base_residuals is None or cand is None:
         return -math.inf
-    n_eff = max(effective_samples(n, rho), added_params + 2.0)
-    return n_eff * math.log(base_cost / cand_cost) - added_params * math.log(n_eff)
+    pairs = [[(b[c], r[c], rate) for b, r, rate in zip(base_residuals, cand,
+                                                        problem.coarse_rates)]
+             for c in problem.channels]
+    deviance, n = heldout_deviance_gain(pairs)
+    if n < added_params + 2:
+        return -math.inf
+    return deviance - added_params * math.log(n)
 
 
 @dataclass
@@ -462,6 +485,10 @@ def search_effects(problem, candidates, max_effects=MAX_EFFECTS, refine_top=REFI
     SearchRound). ``problem`` must have its nominal base set; on return its base
     is the extended model.
     """
+    if problem.recalibration:
+        # the recalibrated nominal parameters are refitted under the defect correction
+        # first, so no candidate is credited with what that refit alone gains
+        polish_effects(problem, [], {})
     nominal = dict(problem.base_values)
     found, values, rounds = _greedy(problem, candidates, max_effects, refine_top,
                                     min_gain_percent)
@@ -547,6 +574,7 @@ def _greedy(problem, candidates, max_effects, refine_top, min_gain_percent, firs
         base_score = math.sqrt(base_cost / n)
         if found and base_score <= WHITE_SCORE:
             break  # the residual is noise: nothing left for a further effect to explain
+        base_residuals = problem.heldout_residuals(values)
         screened = [(problem.screen(c), c) for c in remaining]
         screened.sort(key=lambda item: item[0][0][0])
         scores = []
@@ -558,8 +586,8 @@ def _greedy(problem, candidates, max_effects, refine_top, min_gain_percent, firs
         def evaluate(trials, cand, refine):
             fit = problem.fit(cand, trials[0][1], refine=refine, free=free if refine else ())
             score = problem.score(fit, refine)
-            score.criterion = penalised_gain(base_cost, score.heldout_cost, score.n_heldout,
-                                             score.lag_one, cand.n_params)
+            score.criterion = noise_model_gain(problem, base_residuals, score.values,
+                                               cand.n_params)
             gain = 100.0 * (1.0 - score.heldout_score / base_score)
             score.significant = bool(fit.success and score.criterion > 0.0
                                      and gain >= min_gain_percent)

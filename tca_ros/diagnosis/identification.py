@@ -16,7 +16,7 @@ from tca_ros.diagnosis.data import read_record, record_config
 from tca_ros.diagnosis.fitting import FitProblem, Progress, search_effects
 from tca_ros.diagnosis.record_ops import decimated, leading_part
 from tca_ros.diagnosis.verdict import channel_stats, decide_verdict, gain, \
-    pooled_heldout_rmse
+    needs_explaining, NOTHING_TO_EXPLAIN, pooled_heldout_rmse
 
 VERDICTS = ('explained', 'adequate', 'unexplained')
 #: Rough count of simulations of a diagnosis, for the progress bar.
@@ -213,8 +213,13 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
                              f'with model={model} ({exc})') from None
     candidates = _candidates(records, params, model, problems, nominals)
     untestable = [c.name for c in candidates if not c.starts]
+    nominal_stats = channel_stats(problems, nominals)
+    effects, values, rounds = [], dict(start_values), []
     try:
-        effects, values, rounds = search_effects(problem, candidates)
+        if needs_explaining(nominal_stats):
+            effects, values, rounds = search_effects(problem, candidates)
+        else:  # what the nominal model leaves is noise by the verdict's test: no search
+            notes.append(NOTHING_TO_EXPLAIN)
         bar.label = 'extended'
         extendeds = [p.simulate_full(values) for p in problems] if effects else nominals
     except (ValueError, ArithmeticError) as exc:  # a candidate the stepper cannot run
@@ -225,7 +230,6 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
     channels = problem.channels
     nominal_rmse = pooled_heldout_rmse(problems, nominals, channels)
     extended_rmse = pooled_heldout_rmse(problems, extendeds, channels)
-    nominal_stats = channel_stats(problems, nominals)
     extended_stats = channel_stats(problems, extendeds,
                                    [p.parameters(values) for p in problems])
     verdict, explanation = decide_verdict(effects, nominal_stats, extended_stats)

@@ -247,3 +247,59 @@ def structure_test(segments, swing, rate_hz=STRUCTURE_RATE_HZ, floor_share=STRUC
     return StructureTest(p_value=p, predictable_rms=math.sqrt(predictable_ms),
                          noise_rms=noise_rms, floor=floor, ar_order=len(phi), n=n,
                          swing=swing, wander_rms=float(np.sqrt(np.mean(wander ** 2))))
+
+
+def detrended(values):
+    """Return ``values`` minus its least-squares offset and linear drift (same units)."""
+    values = np.asarray(values, dtype=float)
+    if values.size < 3:
+        return values - values.mean() if values.size else values
+    basis = np.column_stack([np.ones(values.size), np.linspace(-1.0, 1.0, values.size)])
+    coef, *_ = np.linalg.lstsq(basis, values, rcond=None)
+    return values - basis @ coef
+
+
+def heldout_deviance_gain(pairs, rate_hz=STRUCTURE_RATE_HZ):
+    """Return (deviance gain, samples) of a candidate over a base on held-out data.
+
+    ``pairs``: one list per channel of (base residual, candidate residual, sample
+    rate in Hz), one per record (channel units). The noise model is the
+    verdict's (:func:`structure_test`): per record an offset and a linear drift
+    are noise and removed, the rest is block-averaged to about ``rate_hz`` and
+    AR(p) (p by BIC, memory capped at MAX_NOISE_TAU_S) fitted to the
+    candidate's residual; both residuals are prewhitened with it. Then
+
+        D = sum_channels n_c ln(S_base,c / S_cand,c)
+
+    with S the sums of squared prewhitened residuals and n_c their count: twice
+    the log-likelihood gain under Gaussian innovations (each channel its own
+    innovation variance). Returns (-inf, n) when a residual is missing or not
+    finite.
+    """
+    total, count = 0.0, 0
+    for channel in pairs:
+        base, cand = [], []
+        block_rate = rate_hz
+        for r0, r1, sample_rate in channel:
+            if r0 is None or r1 is None:
+                return -math.inf, count
+            step = max(1, int(round(sample_rate / rate_hz)))
+            block_rate = sample_rate / step
+            base.append(detrended(block_means(r0, step)))
+            cand.append(detrended(block_means(r1, step)))
+        joined = np.concatenate(cand) if cand else np.zeros(0)
+        if joined.size < 12 or not np.all(np.isfinite(joined)):
+            return (-math.inf if joined.size and not np.all(np.isfinite(joined)) else 0.0,
+                    count)
+        phi, _ = ar_fit(joined, ar_order(joined))
+        rho_max = math.exp(-1.0 / (block_rate * MAX_NOISE_TAU_S))
+        if phi.sum() > rho_max:
+            phi = phi * (rho_max / phi.sum())
+        s0 = sum(float(np.sum(prewhiten(e, phi) ** 2)) for e in base)
+        s1 = sum(float(np.sum(prewhiten(e, phi) ** 2)) for e in cand)
+        n = sum(max(e.size - len(phi), 0) for e in cand)
+        if not (s0 > 0.0 and s1 > 0.0 and math.isfinite(s0)):
+            return -math.inf, count
+        total += n * math.log(s0 / s1)
+        count += n
+    return total, count

@@ -65,6 +65,20 @@ def channel_stats(problems, sims, params=None):
     return out
 
 
+NOTHING_TO_EXPLAIN = ('no effect searched: the inputs predict nothing beyond the noise in '
+                      "the calibrated nominal model's held-out residual")
+
+
+def needs_explaining(stats):
+    """Return the channels (list) of {channel: ResidualStats} with structure left.
+
+    Empty when what the model leaves is noise by the verdict's own test
+    (noise.structure_test): then there is nothing for an effect to explain,
+    and any effect a search would add could only fit noise.
+    """
+    return [st.channel for st in stats.values() if st.structured]
+
+
 def _structure_summary(stats):
     """Return 'channel: predictable X of floor Y (p=...)' for each channel."""
     parts = []
