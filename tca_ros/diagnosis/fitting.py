@@ -450,8 +450,8 @@ def noise_model_gain(problem, base_residuals, values, added_params):
     cand = problem.heldout_residuals(values)
     if base_residuals is None or cand is None:
         return -math.inf
-    pairs = [[(b[c], r[c], rate) for b, r, rate in zip(base_residuals, cand,
-                                                        problem.coarse_rates)]
+    rates = problem.coarse_rates
+    pairs = [[(b[c], r[c], rate) for b, r, rate in zip(base_residuals, cand, rates)]
              for c in problem.channels]
     deviance, n = heldout_deviance_gain(pairs)
     if n < added_params + 2:

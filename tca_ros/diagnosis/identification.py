@@ -10,8 +10,8 @@ import time as wallclock
 
 import numpy as np
 
-from tca_ros.diagnosis.candidates import build_candidates, RECALIBRATION, \
-    recalibration_spaces
+from tca_ros.diagnosis.candidates import ABSORBED, absorbed_candidates, build_candidates, \
+    RECALIBRATION, recalibration_spaces
 from tca_ros.diagnosis.data import read_record, record_config
 from tca_ros.diagnosis.fitting import FitProblem, Progress, search_effects
 from tca_ros.diagnosis.record_ops import decimated, leading_part
@@ -211,7 +211,11 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
         bar.close()
         raise DiagnosisError(f'{data_path}: the nominal model cannot simulate this record '
                              f'with model={model} ({exc})') from None
-    candidates = _candidates(records, params, model, problems, nominals)
+    candidates, absorbed = absorbed_candidates(
+        _candidates(records, params, model, problems, nominals), problem.recalibration)
+    if absorbed:
+        notes.append(f'not searched: {", ".join(absorbed)} (the calibrated '
+                     f'{", ".join(ABSORBED[a] for a in absorbed)} is the same parameter)')
     untestable = [c.name for c in candidates if not c.starts]
     nominal_stats = channel_stats(problems, nominals)
     effects, values, rounds = [], dict(start_values), []

@@ -19,9 +19,10 @@ Orcutt, JASA 44, 1949). The F-test of
 the input terms is Ljung's residual-input independence test (System
 Identification, 2nd ed., Sec. 16.6) in regression form. A residual is
 *structured* when the input terms are significant and what they predict is
-larger than the rest of the residual (it is not "within the noise") and than
-a small share of the measured stroke or swing; or when the rest is itself
-larger than 5 % of the swing (no sensor is that noisy).
+larger than the noise (what neither they nor the offset and drift describe:
+it is not "within the noise") and than 1 % of the measured stroke or swing (a
+model error below that is no practical error of a simulator); or when the
+rest is itself larger than 5 % of the swing (no sensor is that noisy).
 """
 from dataclasses import dataclass
 import math
@@ -31,7 +32,7 @@ from scipy import stats
 
 STRUCTURE_ALPHA = 1e-3  # significance level of the residual-input test
 STRUCTURE_NOISE_SHARE = 1.0  # predictable residual within this many noise RMS is noise
-STRUCTURE_FLOOR = 0.002  # ... and below this share of the signal swing is ignored
+STRUCTURE_FLOOR = 0.01  # ... and below this share of the signal swing is ignored
 MAX_NOISE_SHARE = 0.05  # a "noise" above this share of the swing is no sensor's: unexplained
 STRUCTURE_RATE_HZ = 2.0  # the structure test runs on block means at about this rate (Hz)
 MAX_AR_ORDER = 3  # highest order of the AR noise model
@@ -120,7 +121,7 @@ class StructureTest:
 
     p_value: float  # of the input terms (F-test after prewhitening)
     predictable_rms: float  # RMS of the part of the residual the input terms predict
-    noise_rms: float  # RMS of the rest at the record rate (noise, drift, offset)
+    noise_rms: float  # RMS at the record rate of what offset, drift and inputs leave
     floor: float  # practical floor on predictable_rms
     ar_order: int  # order of the AR noise model
     n: int  # samples in the test (block means)
@@ -168,9 +169,11 @@ def structure_test(segments, swing, rate_hz=STRUCTURE_RATE_HZ, floor_share=STRUC
     ``segments`` is a list of (residual, terms, sample rate in Hz), one per record
     (terms from :func:`input_terms`, same columns in every record); ``swing`` is
     the measured signal's range (channel units). The practical floor on the
-    predictable part is the larger of ``noise_share`` times the rest of the
-    residual at the record rate (noise, drift and offset: "within the noise")
-    and ``floor_share`` times the swing.
+    predictable part is the larger of ``noise_share`` times the noise (what
+    neither an offset and a drift per record nor the inputs describe, at the
+    record rate: "within the noise") and ``floor_share`` times the swing.
+    An offset or a drift, however large, is no noise floor: a defect whose
+    residual is mostly an offset would otherwise hide the rest of it.
     Both are averaged over blocks to about ``rate_hz`` (white sensor noise
     averages out, the structure stays). Nuisance terms: an offset and a linear
     drift per record. The AR(p) noise model is fitted to the full regression's
@@ -242,11 +245,29 @@ def structure_test(segments, swing, rate_hz=STRUCTURE_RATE_HZ, floor_share=STRUC
     predictable = np.concatenate([x @ raw[k:] - np.mean(x @ raw[k:]) for x in xs])
     wander = np.concatenate([e - np.column_stack([u, x]) @ raw for e, u, x in zip(es, nuis, xs)])
     predictable_ms = float(np.mean(predictable ** 2))
-    noise_rms = math.sqrt(max(native_ms - predictable_ms, 0.0))  # at the record rate
+    # the noise by the model of the noise: what neither an offset and a drift per record
+    # nor the inputs describe (the block means' rest, plus the spread within the blocks)
+    wander_ms = float(np.mean(wander ** 2))
+    noise_rms = math.sqrt(wander_ms + _within_block_ms(segments, rate_hz))
     floor = max(floor_share * swing, noise_share * noise_rms)
     return StructureTest(p_value=p, predictable_rms=math.sqrt(predictable_ms),
                          noise_rms=noise_rms, floor=floor, ar_order=len(phi), n=n,
-                         swing=swing, wander_rms=float(np.sqrt(np.mean(wander ** 2))))
+                         swing=swing, wander_rms=math.sqrt(wander_ms))
+
+
+def _within_block_ms(segments, rate_hz):
+    """Return the mean square of the residuals about their block means (record rate)."""
+    total, count = 0.0, 0
+    for residual, _, sample_rate in segments:
+        step = max(1, int(round(sample_rate / rate_hz)))
+        r = np.asarray(residual, dtype=float)
+        n = r.size // step
+        if n == 0 or step == 1:
+            continue
+        blocks = r[:n * step].reshape(n, step)
+        total += float(np.sum((blocks - blocks.mean(axis=1, keepdims=True)) ** 2))
+        count += n * step
+    return total / count if count else 0.0
 
 
 def detrended(values):
