@@ -220,7 +220,8 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
     nominal_stats = channel_stats(problems, nominals)
     effects, values, rounds = [], dict(start_values), []
     try:
-        if needs_explaining(nominal_stats):
+        # an effect may show in the training part only (creep settled before the split)
+        if needs_explaining(nominal_stats, channel_stats(problems, nominals, whole=True)):
             effects, values, rounds = search_effects(problem, candidates)
         else:  # what the nominal model leaves is noise by the verdict's test: no search
             notes.append(NOTHING_TO_EXPLAIN)

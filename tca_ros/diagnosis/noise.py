@@ -20,7 +20,7 @@ the input terms is Ljung's residual-input independence test (System
 Identification, 2nd ed., Sec. 16.6) in regression form. A residual is
 *structured* when the input terms are significant and what they predict is
 larger than the noise (what neither they nor the offset and drift describe:
-it is not "within the noise") and than 1 % of the measured stroke or swing (a
+it is not "within the noise") and than 0.5 % of the measured stroke or swing (a
 model error below that is no practical error of a simulator); or when the
 rest is itself larger than 5 % of the swing (no sensor is that noisy).
 """
@@ -32,7 +32,7 @@ from scipy import stats
 
 STRUCTURE_ALPHA = 1e-3  # significance level of the residual-input test
 STRUCTURE_NOISE_SHARE = 1.0  # predictable residual within this many noise RMS is noise
-STRUCTURE_FLOOR = 0.01  # ... and below this share of the signal swing is ignored
+STRUCTURE_FLOOR = 0.005  # ... and below this share of the signal swing is ignored
 MAX_NOISE_SHARE = 0.05  # a "noise" above this share of the swing is no sensor's: unexplained
 STRUCTURE_RATE_HZ = 2.0  # the structure test runs on block means at about this rate (Hz)
 MAX_AR_ORDER = 3  # highest order of the AR noise model

@@ -28,13 +28,14 @@ def pooled_heldout_rmse(problems, sims, channels):
     return out
 
 
-def channel_stats(problems, sims, params=None):
+def channel_stats(problems, sims, params=None, whole=False):
     """Return {channel: ResidualStats} of ``sims`` on the held-out parts (record rate).
 
     ``problems`` and ``sims`` are lists (one per record) or a single pair. Each
     channel carries the residual-input independence test (noise.structure_test),
     pooled over the records, against the input-driven signals of ``params``
-    (per record; default each problem's).
+    (per record; default each problem's). ``whole``: on the whole records
+    (training and held-out parts) instead.
     """
     if not isinstance(problems, (list, tuple)):
         problems, sims = [problems], [sims]
@@ -45,7 +46,7 @@ def channel_stats(problems, sims, params=None):
         segments, measured_all, predicted_all, temp_all = [], [], [], []
         swing = 0.0
         for p, sim, par in zip(problems, sims, params):
-            r, s = p.record, p.full_split
+            r, s = p.record, (0 if whole else p.full_split)
             measured, predicted = getattr(r, c), getattr(sim, c)
             tau = thermal_time_constant(par.fiber, par.thermal)
             rise = sim.temperature[s:] - par.thermal.ambient_temperature
@@ -66,17 +67,19 @@ def channel_stats(problems, sims, params=None):
 
 
 NOTHING_TO_EXPLAIN = ('no effect searched: the inputs predict nothing beyond the noise in '
-                      "the calibrated nominal model's held-out residual")
+                      "the calibrated nominal model's residual (held-out part or whole "
+                      'record)')
 
 
-def needs_explaining(stats):
+def needs_explaining(*stats):
     """Return the channels (list) of {channel: ResidualStats} with structure left.
 
     Empty when what the model leaves is noise by the verdict's own test
     (noise.structure_test): then there is nothing for an effect to explain,
-    and any effect a search would add could only fit noise.
+    and any effect a search would add could only fit noise. ``stats`` may be
+    several such dicts (held-out part, whole record): structure in any counts.
     """
-    return [st.channel for st in stats.values() if st.structured]
+    return [st.channel for part in stats for st in part.values() if st.structured]
 
 
 def _structure_summary(stats):
