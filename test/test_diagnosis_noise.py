@@ -116,3 +116,19 @@ def test_a_candidate_that_removes_input_driven_structure_gains():
     both = _penalised([[(noise + missing, noise, RATE), (noise + missing, noise, RATE)],
                        [(other, other, RATE)]])
     assert both > one
+
+
+def test_an_offset_does_not_hide_the_structure_beside_it():
+    # a fading actuation gain: the held-out residual is mostly an offset (noise by
+    # assumption), beside an input-driven part well above the sensor noise
+    rng = np.random.default_rng(11)
+    power, predicted, rise = plant(rng)
+    structure = -0.03 * (predicted - predicted.mean())
+    residual = 2e-3 + structure + ar1(rng, N, RATE, 20e-6, 2.0)
+    terms = input_terms(predicted, rise, power, RATE, 4.0)
+    test = structure_test([(residual, terms, RATE)], swing=float(np.ptp(predicted)))
+    assert test.structured, test
+    assert test.noise_rms < 3.0 * 20e-6  # the offset is not counted as noise
+    # the same structure below 0.5 % of the swing is no practical model error
+    small = 2e-3 + 0.1 * structure + ar1(rng, N, RATE, 2e-6, 2.0)
+    assert not structure_test([(small, terms, RATE)], swing=float(np.ptp(predicted))).structured

@@ -52,3 +52,16 @@ def test_parameter_space_round_trip(space):
         assert space.from_unit(space.to_unit(value)) == pytest.approx(value, rel=1e-12)
     assert space.from_unit(-1.0) == space.low and space.from_unit(2.0) == space.high
     assert math.isfinite(space.to_unit(space.high * 10))
+
+
+def test_power_loss_is_not_searched_beside_a_refitted_delivered_power_ratio():
+    from tca_ros.diagnosis.candidates import absorbed_candidates, build_candidates, \
+        recalibration_spaces
+    from tca_ros.model.params import load_params
+    params = load_params('free_stroke', model='cst')
+    candidates = build_candidates(params, 'cst', 0.29, 5e-3)
+    kept, absorbed = absorbed_candidates(candidates, recalibration_spaces(params)[0])
+    assert absorbed == ['power_loss']
+    assert [c.name for c in kept] == [c.name for c in candidates if c.name != 'power_loss']
+    kept, absorbed = absorbed_candidates(candidates, ())  # no calibration: searched
+    assert absorbed == [] and len(kept) == len(candidates)
