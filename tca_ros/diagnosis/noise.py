@@ -121,7 +121,7 @@ class StructureTest:
 
     p_value: float  # of the input terms (F-test after prewhitening)
     predictable_rms: float  # RMS of the part of the residual the input terms predict
-    noise_rms: float  # RMS at the record rate of what offset, drift and inputs leave
+    noise_rms: float  # RMS at the record rate of the AR noise model (+ within blocks)
     floor: float  # practical floor on predictable_rms
     ar_order: int  # order of the AR noise model
     n: int  # samples in the test (block means)
@@ -169,11 +169,13 @@ def structure_test(segments, swing, rate_hz=STRUCTURE_RATE_HZ, floor_share=STRUC
     ``segments`` is a list of (residual, terms, sample rate in Hz), one per record
     (terms from :func:`input_terms`, same columns in every record); ``swing`` is
     the measured signal's range (channel units). The practical floor on the
-    predictable part is the larger of ``noise_share`` times the noise (what
-    neither an offset and a drift per record nor the inputs describe, at the
-    record rate: "within the noise") and ``floor_share`` times the swing.
-    An offset or a drift, however large, is no noise floor: a defect whose
-    residual is mostly an offset would otherwise hide the rest of it.
+    predictable part is the larger of ``noise_share`` times the noise (the
+    standard deviation of the fitted AR noise model of the block means plus the
+    spread within the blocks, at the record rate: "within the noise") and
+    ``floor_share`` times the swing. An offset, a drift or a wander slower than
+    the noise model's memory is no noise floor: a defect whose residual is mostly
+    an offset (fatigue) or a slow settling (creep under a constant load) would
+    otherwise hide the rest of it.
     Both are averaged over blocks to about ``rate_hz`` (white sensor noise
     averages out, the structure stays). Nuisance terms: an offset and a linear
     drift per record. The AR(p) noise model is fitted to the full regression's
@@ -245,14 +247,30 @@ def structure_test(segments, swing, rate_hz=STRUCTURE_RATE_HZ, floor_share=STRUC
     predictable = np.concatenate([x @ raw[k:] - np.mean(x @ raw[k:]) for x in xs])
     wander = np.concatenate([e - np.column_stack([u, x]) @ raw for e, u, x in zip(es, nuis, xs)])
     predictable_ms = float(np.mean(predictable ** 2))
-    # the noise by the model of the noise: what neither an offset and a drift per record
-    # nor the inputs describe (the block means' rest, plus the spread within the blocks)
+    # the noise by the model of the noise: the variance of the fitted AR(p) process of
+    # the block means (innovations of the full regression), plus the spread within the
+    # blocks; an offset, a drift or a wander slower than the AR memory is not in it
     wander_ms = float(np.mean(wander ** 2))
-    noise_rms = math.sqrt(wander_ms + _within_block_ms(segments, rate_hz))
+    innovation_var = ssr1 / dof if dof > 0 else 0.0
+    noise_rms = math.sqrt(innovation_var * ar_variance_gain(phi)
+                          + _within_block_ms(segments, rate_hz))
     floor = max(floor_share * swing, noise_share * noise_rms)
     return StructureTest(p_value=p, predictable_rms=math.sqrt(predictable_ms),
                          noise_rms=noise_rms, floor=floor, ar_order=len(phi), n=n,
                          swing=swing, wander_rms=math.sqrt(wander_ms))
+
+
+def ar_variance_gain(phi, terms=2000):
+    """Return var(x) / var(innovation) (-) of the stationary AR process with ``phi``."""
+    p = len(phi)
+    if p == 0:
+        return 1.0
+    psi = np.zeros(terms)
+    psi[0] = 1.0
+    for j in range(1, terms):
+        k = min(p, j)
+        psi[j] = float(np.dot(phi[:k], psi[j - 1::-1][:k]))
+    return float(np.sum(psi ** 2))
 
 
 def _within_block_ms(segments, rate_hz):
