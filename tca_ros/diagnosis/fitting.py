@@ -32,8 +32,9 @@ import time as wallclock
 import numpy as np
 from scipy.optimize import least_squares
 
-from tca_ros.diagnosis.noise import heldout_deviance_gain, quantisation_sigma
+from tca_ros.diagnosis.noise import quantisation_sigma
 from tca_ros.diagnosis.residuals import lag_one_autocorrelation, noise_sigma
+from tca_ros.diagnosis.verdict import noise_model_gain
 from tca_ros.model.dynamics import simulate
 from tca_ros.model.params import SPECS
 from tca_ros.model.quasistatic import QuasiStaticUnsupported, simulate_quasistatic
@@ -434,29 +435,6 @@ def _standard_errors(spaces, z, residual, jac):
         var = cov[i, i]
         out[s.name] = abs(slope) * math.sqrt(var) if var >= 0.0 else math.nan
     return out
-
-
-def noise_model_gain(problem, base_residuals, values, added_params):
-    """Return the BIC-penalised held-out gain of ``values`` under the verdict's noise model.
-
-        D - k ln(n)
-
-    D from noise.heldout_deviance_gain (per record an offset and a drift are
-    noise, the rest AR(p) noise: the model the verdict judges residuals by),
-    n its sample count, k the added parameters. Positive: the candidate
-    predicts the held-out part better than k parameters fitted to noise would.
-    ``base_residuals`` is ``problem.heldout_residuals`` of the base.
-    """
-    cand = problem.heldout_residuals(values)
-    if base_residuals is None or cand is None:
-        return -math.inf
-    rates = problem.coarse_rates
-    pairs = [[(b[c], r[c], rate) for b, r, rate in zip(base_residuals, cand, rates)]
-             for c in problem.channels]
-    deviance, n = heldout_deviance_gain(pairs)
-    if n < added_params + 2:
-        return -math.inf
-    return deviance - added_params * math.log(n)
 
 
 @dataclass

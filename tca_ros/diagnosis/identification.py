@@ -225,9 +225,7 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
             effects, values, rounds = search_effects(problem, candidates)
         else:  # what the nominal model leaves is noise by the verdict's test: no search
             notes.append(NOTHING_TO_EXPLAIN)
-        if not effects:  # the nominal stays as calibrated (no polish of it alone)
-            values = dict(start_values)
-        bar.label = 'extended'
+        values = values if effects else dict(start_values)  # not the round-one polish
         extendeds = [p.simulate_full(values) for p in problems] if effects else nominals
     except (ValueError, ArithmeticError) as exc:  # a candidate the stepper cannot run
         raise DiagnosisError(f'{data_path}: the effect search failed with model={model} '

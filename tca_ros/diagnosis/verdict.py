@@ -2,11 +2,14 @@
 
 A channel is structured when the inputs still predict its held-out residual
 (noise.structure_test, pooled over the records of a set); the verdict follows
-(docs/diagnosis.md, sections 2.9 and 11).
+(docs/diagnosis.md, sections 2.9 and 11). A candidate is accepted by its
+held-out gain under the same noise model (noise_model_gain).
 """
+import math
+
 import numpy as np
 
-from tca_ros.diagnosis.noise import input_terms, structure_test
+from tca_ros.diagnosis.noise import heldout_deviance_gain, input_terms, structure_test
 from tca_ros.diagnosis.residuals import residual_stats
 from tca_ros.model.thermal import thermal_time_constant
 
@@ -121,3 +124,26 @@ def decide_verdict(effects, nominal_stats, extended_stats):
     return 'unexplained', (f'unexplained structure remains {what}: the inputs still predict '
                            f'the held-out residual of {", ".join(structured)} ({summary})'
                            f'{caution}')
+
+
+def noise_model_gain(problem, base_residuals, values, added_params):
+    """Return the BIC-penalised held-out gain of ``values`` under the verdict's noise model.
+
+        D - k ln(n)
+
+    D from noise.heldout_deviance_gain (per record an offset and a drift are
+    noise, the rest AR(p) noise: the model the verdict judges residuals by),
+    n its sample count, k the added parameters. Positive: the candidate
+    predicts the held-out part better than k parameters fitted to noise would.
+    ``base_residuals`` is ``problem.heldout_residuals`` of the base.
+    """
+    cand = problem.heldout_residuals(values)
+    if base_residuals is None or cand is None:
+        return -math.inf
+    rates = problem.coarse_rates
+    pairs = [[(b[c], r[c], rate) for b, r, rate in zip(base_residuals, cand, rates)]
+             for c in problem.channels]
+    deviance, n = heldout_deviance_gain(pairs)
+    if n < added_params + 2:
+        return -math.inf
+    return deviance - added_params * math.log(n)
