@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 
 from tca_ros.diagnosis.noise import (
-    ar_fit, ar_order, first_order_lag, input_terms, quantisation_sigma, quantisation_step,
-    structure_test)
+    ar_fit, ar_order, detrended, first_order_lag, heldout_deviance_gain, input_terms,
+    quantisation_sigma, quantisation_step, structure_test)
 from tca_ros.diagnosis.realistic import ar1
 
 RATE = 20.0  # Hz
@@ -75,3 +75,60 @@ def test_records_are_pooled_each_with_its_own_offset_and_drift():
     test = structure_test(segments, swing=0.01)
     assert not test.structured, test
     assert test.n == 3 * N // 10  # block means at 2 Hz
+
+
+def _penalised(pairs, k=1):
+    deviance, n = heldout_deviance_gain(pairs)
+    return deviance - k * math.log(n)
+
+
+def test_detrended_removes_offset_and_drift_only():
+    t = np.linspace(0.0, 1.0, 200)
+    wave = np.sin(12.0 * t)
+    out = detrended(3.0 + 2.0 * t + wave)
+    assert abs(out.mean()) < 1e-12
+    assert np.allclose(out, detrended(wave))
+
+
+@pytest.mark.parametrize('seed', range(4))
+def test_a_candidate_that_moves_offset_and_drift_gains_nothing(seed):
+    # the base's held-out residual is coloured noise plus an offset and a drift: a
+    # candidate that removes the offset and the drift explains noise, not the record
+    rng = np.random.default_rng(seed)
+    noise = ar1(rng, N, RATE, 20e-6) + 3e-6 * rng.standard_normal(N)
+    t = np.arange(N) / RATE
+    base = noise + 0.3e-3 + 0.4e-3 * t / t[-1]
+    raw_gain = 1.0 - np.sqrt(np.mean(noise ** 2) / np.mean(base ** 2))
+    assert raw_gain > 0.8  # the raw RMS would call it a huge gain
+    assert _penalised([[(base, noise, RATE)]]) < 0.0
+
+
+def test_a_candidate_that_removes_input_driven_structure_gains():
+    rng = np.random.default_rng(5)
+    power, predicted, rise = plant(rng)
+    noise = ar1(rng, N, RATE, 20e-6)
+    missing = 0.01 * (predicted - first_order_lag(predicted, RATE, 12.0))  # a slow mode
+    assert np.sqrt(np.mean(missing ** 2)) < 2.0 * np.sqrt(np.mean(noise ** 2))
+    assert _penalised([[(noise + missing, noise, RATE)]]) > 0.0
+    # two records and two channels: the gains add
+    other = ar1(rng, N, RATE, 0.1)
+    one = _penalised([[(noise + missing, noise, RATE)]])
+    both = _penalised([[(noise + missing, noise, RATE), (noise + missing, noise, RATE)],
+                       [(other, other, RATE)]])
+    assert both > one
+
+
+def test_an_offset_does_not_hide_the_structure_beside_it():
+    # a fading actuation gain: the held-out residual is mostly an offset (noise by
+    # assumption), beside an input-driven part well above the sensor noise
+    rng = np.random.default_rng(11)
+    power, predicted, rise = plant(rng)
+    structure = -0.03 * (predicted - predicted.mean())
+    residual = 2e-3 + structure + ar1(rng, N, RATE, 20e-6, 2.0)
+    terms = input_terms(predicted, rise, power, RATE, 4.0)
+    test = structure_test([(residual, terms, RATE)], swing=float(np.ptp(predicted)))
+    assert test.structured, test
+    assert test.noise_rms < 3.0 * 20e-6  # the offset is not counted as noise
+    # the same structure below 0.5 % of the swing is no practical model error
+    small = 2e-3 + 0.1 * structure + ar1(rng, N, RATE, 2e-6, 2.0)
+    assert not structure_test([(small, terms, RATE)], swing=float(np.ptp(predicted))).structured

@@ -5,7 +5,6 @@ import numpy as np
 import pytest
 
 from tca_ros.diagnosis.candidates import ParameterSpace
-from tca_ros.diagnosis.fitting import penalised_gain
 from tca_ros.diagnosis.residuals import cross_correlation_lag, effective_samples, \
     ljung_box, noise_sigma, spectral_flatness
 
@@ -40,13 +39,8 @@ def test_cross_correlation_finds_a_known_lag():
     assert best == pytest.approx(0.25)
 
 
-def test_penalty_rejects_equal_fits_and_accepts_large_gains():
+def test_effective_samples_of_autocorrelated_residuals():
     n = 1000
-    assert penalised_gain(1000.0, 1000.0, n, 0.0, 1) < 0.0
-    assert penalised_gain(1000.0, 995.0, n, 0.0, 1) < 0.0  # 0.5 % of cost: chance
-    assert penalised_gain(4000.0, 1000.0, n, 0.0, 1) > 0.0
-    # the same gain on strongly autocorrelated residuals is worth less
-    assert penalised_gain(1100.0, 1000.0, n, 0.95, 1) < penalised_gain(1100.0, 1000.0, n, 0.0, 1)
     assert effective_samples(n, 0.0) == n and effective_samples(n, 0.5) == pytest.approx(n / 3)
 
 
@@ -58,3 +52,16 @@ def test_parameter_space_round_trip(space):
         assert space.from_unit(space.to_unit(value)) == pytest.approx(value, rel=1e-12)
     assert space.from_unit(-1.0) == space.low and space.from_unit(2.0) == space.high
     assert math.isfinite(space.to_unit(space.high * 10))
+
+
+def test_power_loss_is_not_searched_beside_a_refitted_delivered_power_ratio():
+    from tca_ros.diagnosis.candidates import absorbed_candidates, build_candidates, \
+        recalibration_spaces
+    from tca_ros.model.params import load_params
+    params = load_params('free_stroke', model='cst')
+    candidates = build_candidates(params, 'cst', 0.29, 5e-3)
+    kept, absorbed = absorbed_candidates(candidates, recalibration_spaces(params)[0])
+    assert absorbed == ['power_loss']
+    assert [c.name for c in kept] == [c.name for c in candidates if c.name != 'power_loss']
+    kept, absorbed = absorbed_candidates(candidates, ())  # no calibration: searched
+    assert absorbed == [] and len(kept) == len(candidates)

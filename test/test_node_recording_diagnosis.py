@@ -112,10 +112,6 @@ def test_the_bag_keeps_the_load_step_and_the_config_load_before_it(recording):
     assert rec.duration == pytest.approx(DURATION, abs=2.0 / RATE)
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    'open (issue 9): the nominal node recording is named ambient_offset; 0.2 K of '
-    'input-predictable temperature residual (and 27 um of displacement) remain between '
-    'the node and the simulation of the inputs read back from the bag'))
 def test_a_recording_of_the_nominal_node_names_no_effect(recording):
     from tca_ros.diagnosis import diagnose
     bag, _ = recording

@@ -76,6 +76,10 @@ _SPACES = {
 #: kelvin), delivered power (steady rise) and specific heat (time constant).
 RECALIBRATION = {'fiber.untwist_gain': (0.6, 1.6), 'thermal.delivered_power_ratio': (0.7, 1.4),
                  'fiber.specific_heat': (0.6, 1.6)}
+#: Effects that are one of the RECALIBRATION parameters under another name: a power
+#: loss eta scales the heating power as the delivered power ratio r does ((1 - eta) r P,
+#: effects.heating_power), so once r is fitted, eta is not identifiable, never a cause.
+ABSORBED = {'power_loss': 'thermal.delivered_power_ratio'}
 CONTACT_START_FRACTIONS = (0.9, 0.75, 0.6, 0.45)  # stop at these fractions of the peak
 CONTACT_MARGIN_DEG = 0.05  # alpha_min stays this far below alpha* (validation rule)
 
@@ -164,3 +168,14 @@ def recalibration_spaces(params):
         spaces.append(ParameterSpace(name, low * value, high * value, log=True))
         values[name] = value
     return tuple(spaces), values
+
+
+def absorbed_candidates(candidates, recalibration):
+    """Return (kept Candidates, names of those a recalibration parameter absorbs).
+
+    ``recalibration``: the ParameterSpaces refitted with every candidate; an
+    effect of ABSORBED whose twin is among them is dropped from the search.
+    """
+    refitted = {s.name for s in recalibration}
+    absorbed = [c.name for c in candidates if ABSORBED.get(c.name) in refitted]
+    return [c for c in candidates if c.name not in absorbed], absorbed

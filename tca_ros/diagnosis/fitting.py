@@ -33,7 +33,8 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from tca_ros.diagnosis.noise import quantisation_sigma
-from tca_ros.diagnosis.residuals import effective_samples, lag_one_autocorrelation, noise_sigma
+from tca_ros.diagnosis.residuals import lag_one_autocorrelation, noise_sigma
+from tca_ros.diagnosis.verdict import noise_model_gain
 from tca_ros.model.dynamics import simulate
 from tca_ros.model.params import SPECS
 from tca_ros.model.quasistatic import QuasiStaticUnsupported, simulate_quasistatic
@@ -325,6 +326,22 @@ class FitProblem:
         r = self.normalised_residuals(prediction, self.split, self.m)
         return float(r @ r), rmse, n, float(np.mean(rhos))
 
+    def heldout_residuals(self, values):
+        """Return [{channel: measured - predicted}] on the coarse held-out part, or None.
+
+        One dict per record (channel units); rates in ``coarse_rates``.
+        """
+        prediction = self.simulate_coarse(values)
+        if prediction is None:
+            return None
+        return [{c: self.coarse_measured[c][self.split:] - prediction[c][self.split:]
+                 for c in self.channels}]
+
+    @property
+    def coarse_rates(self):
+        """Return [coarse-grid rate (Hz)] per record."""
+        return [self.sample_rate / self.k]
+
     # -- fitting --------------------------------------------------------------------
     def screen(self, candidate):
         """Return [(train cost, start values, cost per channel)], best first.
@@ -420,22 +437,6 @@ def _standard_errors(spaces, z, residual, jac):
     return out
 
 
-def penalised_gain(base_cost, cand_cost, n, rho, added_params):
-    """Return the BIC-penalised log-likelihood gain of a candidate on held-out data.
-
-        n_eff = n (1 - rho) / (1 + rho)
-        gain  = n_eff ln(S_base / S_cand) - k ln(n_eff)
-
-    S are held-out sums of squared noise-normalised residuals, rho their lag-1
-    autocorrelation under the candidate, k the added parameters. Positive means
-    the improvement is more than k extra parameters would buy by chance.
-    """
-    if not (cand_cost > 0.0 and base_cost > 0.0):
-        return -math.inf
-    n_eff = max(effective_samples(n, rho), added_params + 2.0)
-    return n_eff * math.log(base_cost / cand_cost) - added_params * math.log(n_eff)
-
-
 @dataclass
 class SearchRound:
     """One greedy round: the scores of every remaining candidate, best first."""
@@ -462,6 +463,10 @@ def search_effects(problem, candidates, max_effects=MAX_EFFECTS, refine_top=REFI
     SearchRound). ``problem`` must have its nominal base set; on return its base
     is the extended model.
     """
+    if problem.recalibration:
+        # the recalibrated nominal parameters are refitted under the defect correction
+        # first, so no candidate is credited with what that refit alone gains
+        polish_effects(problem, [], {})
     nominal = dict(problem.base_values)
     found, values, rounds = _greedy(problem, candidates, max_effects, refine_top,
                                     min_gain_percent)
@@ -547,6 +552,7 @@ def _greedy(problem, candidates, max_effects, refine_top, min_gain_percent, firs
         base_score = math.sqrt(base_cost / n)
         if found and base_score <= WHITE_SCORE:
             break  # the residual is noise: nothing left for a further effect to explain
+        base_residuals = problem.heldout_residuals(values)
         screened = [(problem.screen(c), c) for c in remaining]
         screened.sort(key=lambda item: item[0][0][0])
         scores = []
@@ -558,8 +564,8 @@ def _greedy(problem, candidates, max_effects, refine_top, min_gain_percent, firs
         def evaluate(trials, cand, refine):
             fit = problem.fit(cand, trials[0][1], refine=refine, free=free if refine else ())
             score = problem.score(fit, refine)
-            score.criterion = penalised_gain(base_cost, score.heldout_cost, score.n_heldout,
-                                             score.lag_one, cand.n_params)
+            score.criterion = noise_model_gain(problem, base_residuals, score.values,
+                                               cand.n_params)
             gain = 100.0 * (1.0 - score.heldout_score / base_score)
             score.significant = bool(fit.success and score.criterion > 0.0
                                      and gain >= min_gain_percent)

@@ -10,13 +10,13 @@ import time as wallclock
 
 import numpy as np
 
-from tca_ros.diagnosis.candidates import build_candidates, RECALIBRATION, \
-    recalibration_spaces
+from tca_ros.diagnosis.candidates import ABSORBED, absorbed_candidates, build_candidates, \
+    RECALIBRATION, recalibration_spaces
 from tca_ros.diagnosis.data import read_record, record_config
 from tca_ros.diagnosis.fitting import FitProblem, Progress, search_effects
 from tca_ros.diagnosis.record_ops import decimated, leading_part
 from tca_ros.diagnosis.verdict import channel_stats, decide_verdict, gain, \
-    pooled_heldout_rmse
+    needs_explaining, NOTHING_TO_EXPLAIN, pooled_heldout_rmse
 
 VERDICTS = ('explained', 'adequate', 'unexplained')
 #: Rough count of simulations of a diagnosis, for the progress bar.
@@ -211,11 +211,21 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
         bar.close()
         raise DiagnosisError(f'{data_path}: the nominal model cannot simulate this record '
                              f'with model={model} ({exc})') from None
-    candidates = _candidates(records, params, model, problems, nominals)
+    candidates, absorbed = absorbed_candidates(
+        _candidates(records, params, model, problems, nominals), problem.recalibration)
+    if absorbed:
+        notes.append(f'not searched: {", ".join(absorbed)} (the calibrated '
+                     f'{", ".join(ABSORBED[a] for a in absorbed)} is the same parameter)')
     untestable = [c.name for c in candidates if not c.starts]
+    nominal_stats = channel_stats(problems, nominals)
+    effects, values, rounds = [], dict(start_values), []
     try:
-        effects, values, rounds = search_effects(problem, candidates)
-        bar.label = 'extended'
+        # an effect may show in the training part only (creep settled before the split)
+        if needs_explaining(nominal_stats, channel_stats(problems, nominals, whole=True)):
+            effects, values, rounds = search_effects(problem, candidates)
+        else:  # what the nominal model leaves is noise by the verdict's test: no search
+            notes.append(NOTHING_TO_EXPLAIN)
+        values = values if effects else dict(start_values)  # not the round-one polish
         extendeds = [p.simulate_full(values) for p in problems] if effects else nominals
     except (ValueError, ArithmeticError) as exc:  # a candidate the stepper cannot run
         raise DiagnosisError(f'{data_path}: the effect search failed with model={model} '
@@ -225,7 +235,6 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
     channels = problem.channels
     nominal_rmse = pooled_heldout_rmse(problems, nominals, channels)
     extended_rmse = pooled_heldout_rmse(problems, extendeds, channels)
-    nominal_stats = channel_stats(problems, nominals)
     extended_stats = channel_stats(problems, extendeds,
                                    [p.parameters(values) for p in problems])
     verdict, explanation = decide_verdict(effects, nominal_stats, extended_stats)

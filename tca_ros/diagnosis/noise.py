@@ -19,9 +19,10 @@ Orcutt, JASA 44, 1949). The F-test of
 the input terms is Ljung's residual-input independence test (System
 Identification, 2nd ed., Sec. 16.6) in regression form. A residual is
 *structured* when the input terms are significant and what they predict is
-larger than the rest of the residual (it is not "within the noise") and than
-a small share of the measured stroke or swing; or when the rest is itself
-larger than 5 % of the swing (no sensor is that noisy).
+larger than the noise (what neither they nor the offset and drift describe:
+it is not "within the noise") and than 0.5 % of the measured stroke or swing (a
+model error below that is no practical error of a simulator); or when the
+rest is itself larger than 5 % of the swing (no sensor is that noisy).
 """
 from dataclasses import dataclass
 import math
@@ -31,7 +32,7 @@ from scipy import stats
 
 STRUCTURE_ALPHA = 1e-3  # significance level of the residual-input test
 STRUCTURE_NOISE_SHARE = 1.0  # predictable residual within this many noise RMS is noise
-STRUCTURE_FLOOR = 0.002  # ... and below this share of the signal swing is ignored
+STRUCTURE_FLOOR = 0.005  # ... and below this share of the signal swing is ignored
 MAX_NOISE_SHARE = 0.05  # a "noise" above this share of the swing is no sensor's: unexplained
 STRUCTURE_RATE_HZ = 2.0  # the structure test runs on block means at about this rate (Hz)
 MAX_AR_ORDER = 3  # highest order of the AR noise model
@@ -120,7 +121,7 @@ class StructureTest:
 
     p_value: float  # of the input terms (F-test after prewhitening)
     predictable_rms: float  # RMS of the part of the residual the input terms predict
-    noise_rms: float  # RMS of the rest at the record rate (noise, drift, offset)
+    noise_rms: float  # RMS at the record rate of the AR noise model (+ within blocks)
     floor: float  # practical floor on predictable_rms
     ar_order: int  # order of the AR noise model
     n: int  # samples in the test (block means)
@@ -168,9 +169,13 @@ def structure_test(segments, swing, rate_hz=STRUCTURE_RATE_HZ, floor_share=STRUC
     ``segments`` is a list of (residual, terms, sample rate in Hz), one per record
     (terms from :func:`input_terms`, same columns in every record); ``swing`` is
     the measured signal's range (channel units). The practical floor on the
-    predictable part is the larger of ``noise_share`` times the rest of the
-    residual at the record rate (noise, drift and offset: "within the noise")
-    and ``floor_share`` times the swing.
+    predictable part is the larger of ``noise_share`` times the noise (the
+    standard deviation of the fitted AR noise model of the block means plus the
+    spread within the blocks, at the record rate: "within the noise") and
+    ``floor_share`` times the swing. An offset, a drift or a wander slower than
+    the noise model's memory is no noise floor: a defect whose residual is mostly
+    an offset (fatigue) or a slow settling (creep under a constant load) would
+    otherwise hide the rest of it.
     Both are averaged over blocks to about ``rate_hz`` (white sensor noise
     averages out, the structure stays). Nuisance terms: an offset and a linear
     drift per record. The AR(p) noise model is fitted to the full regression's
@@ -242,8 +247,98 @@ def structure_test(segments, swing, rate_hz=STRUCTURE_RATE_HZ, floor_share=STRUC
     predictable = np.concatenate([x @ raw[k:] - np.mean(x @ raw[k:]) for x in xs])
     wander = np.concatenate([e - np.column_stack([u, x]) @ raw for e, u, x in zip(es, nuis, xs)])
     predictable_ms = float(np.mean(predictable ** 2))
-    noise_rms = math.sqrt(max(native_ms - predictable_ms, 0.0))  # at the record rate
+    # the noise by the model of the noise: the variance of the fitted AR(p) process of
+    # the block means (innovations of the full regression), plus the spread within the
+    # blocks; an offset, a drift or a wander slower than the AR memory is not in it
+    wander_ms = float(np.mean(wander ** 2))
+    innovation_var = ssr1 / dof if dof > 0 else 0.0
+    noise_rms = math.sqrt(innovation_var * ar_variance_gain(phi)
+                          + _within_block_ms(segments, rate_hz))
     floor = max(floor_share * swing, noise_share * noise_rms)
     return StructureTest(p_value=p, predictable_rms=math.sqrt(predictable_ms),
                          noise_rms=noise_rms, floor=floor, ar_order=len(phi), n=n,
-                         swing=swing, wander_rms=float(np.sqrt(np.mean(wander ** 2))))
+                         swing=swing, wander_rms=math.sqrt(wander_ms))
+
+
+def ar_variance_gain(phi, terms=2000):
+    """Return var(x) / var(innovation) (-) of the stationary AR process with ``phi``."""
+    p = len(phi)
+    if p == 0:
+        return 1.0
+    psi = np.zeros(terms)
+    psi[0] = 1.0
+    for j in range(1, terms):
+        k = min(p, j)
+        psi[j] = float(np.dot(phi[:k], psi[j - 1::-1][:k]))
+    return float(np.sum(psi ** 2))
+
+
+def _within_block_ms(segments, rate_hz):
+    """Return the mean square of the residuals about their block means (record rate)."""
+    total, count = 0.0, 0
+    for residual, _, sample_rate in segments:
+        step = max(1, int(round(sample_rate / rate_hz)))
+        r = np.asarray(residual, dtype=float)
+        n = r.size // step
+        if n == 0 or step == 1:
+            continue
+        blocks = r[:n * step].reshape(n, step)
+        total += float(np.sum((blocks - blocks.mean(axis=1, keepdims=True)) ** 2))
+        count += n * step
+    return total / count if count else 0.0
+
+
+def detrended(values):
+    """Return ``values`` minus its least-squares offset and linear drift (same units)."""
+    values = np.asarray(values, dtype=float)
+    if values.size < 3:
+        return values - values.mean() if values.size else values
+    basis = np.column_stack([np.ones(values.size), np.linspace(-1.0, 1.0, values.size)])
+    coef, *_ = np.linalg.lstsq(basis, values, rcond=None)
+    return values - basis @ coef
+
+
+def heldout_deviance_gain(pairs, rate_hz=STRUCTURE_RATE_HZ):
+    """Return (deviance gain, samples) of a candidate over a base on held-out data.
+
+    ``pairs``: one list per channel of (base residual, candidate residual, sample
+    rate in Hz), one per record (channel units). The noise model is the
+    verdict's (:func:`structure_test`): per record an offset and a linear drift
+    are noise and removed, the rest is block-averaged to about ``rate_hz`` and
+    AR(p) (p by BIC, memory capped at MAX_NOISE_TAU_S) fitted to the
+    candidate's residual; both residuals are prewhitened with it. Then
+
+        D = sum_channels n_c ln(S_base,c / S_cand,c)
+
+    with S the sums of squared prewhitened residuals and n_c their count: twice
+    the log-likelihood gain under Gaussian innovations (each channel its own
+    innovation variance). Returns (-inf, n) when a residual is missing or not
+    finite.
+    """
+    total, count = 0.0, 0
+    for channel in pairs:
+        base, cand = [], []
+        block_rate = rate_hz
+        for r0, r1, sample_rate in channel:
+            if r0 is None or r1 is None:
+                return -math.inf, count
+            step = max(1, int(round(sample_rate / rate_hz)))
+            block_rate = sample_rate / step
+            base.append(detrended(block_means(r0, step)))
+            cand.append(detrended(block_means(r1, step)))
+        joined = np.concatenate(cand) if cand else np.zeros(0)
+        if joined.size < 12 or not np.all(np.isfinite(joined)):
+            return (-math.inf if joined.size and not np.all(np.isfinite(joined)) else 0.0,
+                    count)
+        phi, _ = ar_fit(joined, ar_order(joined))
+        rho_max = math.exp(-1.0 / (block_rate * MAX_NOISE_TAU_S))
+        if phi.sum() > rho_max:
+            phi = phi * (rho_max / phi.sum())
+        s0 = sum(float(np.sum(prewhiten(e, phi) ** 2)) for e in base)
+        s1 = sum(float(np.sum(prewhiten(e, phi) ** 2)) for e in cand)
+        n = sum(max(e.size - len(phi), 0) for e in cand)
+        if not (s0 > 0.0 and s1 > 0.0 and math.isfinite(s0)):
+            return -math.inf, count
+        total += n * math.log(s0 / s1)
+        count += n
+    return total, count

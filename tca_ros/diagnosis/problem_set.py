@@ -62,6 +62,21 @@ class FitProblemSet(FitProblem):
         return np.concatenate([np.concatenate([part[i] for part in parts])
                                for i in range(len(self.channels))])
 
+    def heldout_residuals(self, values):
+        """Return [{channel: residual}] on the coarse held-out parts (one per record), or None."""
+        out = []
+        for p in self.problems:
+            part = p.heldout_residuals(values)
+            if part is None:
+                return None
+            out.extend(part)
+        return out
+
+    @property
+    def coarse_rates(self):
+        """Return [coarse-grid rate (Hz)] per record."""
+        return [r for p in self.problems for r in p.coarse_rates]
+
     def heldout(self, values):
         """Return (cost, {channel: RMSE}, n, mean lag-1 autocorrelation) over the records."""
         cost, n, rhos, sq, counts = 0.0, 0, [], {}, {}

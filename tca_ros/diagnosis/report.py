@@ -178,9 +178,11 @@ def write_markdown(result, report_dir, figures):
     lines += ['', '![measured vs nominal vs extended](fit.png)', '',
               '## Candidates', '',
               'Each candidate fitted alone on the training part, scored on the held-out part '
-              '(round 1). Penalised gain: n_eff ln(S_nominal / S_candidate) - k ln(n_eff) on '
-              'the noise-normalised held-out residual sums S, n_eff corrected for residual '
-              'autocorrelation; significant when positive and the RMS gain is at least 1 %.',
+              '(round 1). Penalised gain: D - k ln(n), D = sum over channels of '
+              'n ln(S_nominal / S_candidate), S the held-out residual sums of squares after '
+              'an offset and a drift are removed and an AR noise model prewhitens them (the '
+              "verdict's noise model); significant when positive and the RMS gain is at "
+              'least 1 %.',
               '']
     if result.rounds:
         lines += _candidate_table(result.rounds[0].scores, result.rounds[0].base_rmse)

@@ -2,11 +2,14 @@
 
 A channel is structured when the inputs still predict its held-out residual
 (noise.structure_test, pooled over the records of a set); the verdict follows
-(docs/diagnosis.md, sections 2.9 and 11).
+(docs/diagnosis.md, sections 2.9 and 11). A candidate is accepted by its
+held-out gain under the same noise model (noise_model_gain).
 """
+import math
+
 import numpy as np
 
-from tca_ros.diagnosis.noise import input_terms, structure_test
+from tca_ros.diagnosis.noise import heldout_deviance_gain, input_terms, structure_test
 from tca_ros.diagnosis.residuals import residual_stats
 from tca_ros.model.thermal import thermal_time_constant
 
@@ -28,13 +31,14 @@ def pooled_heldout_rmse(problems, sims, channels):
     return out
 
 
-def channel_stats(problems, sims, params=None):
+def channel_stats(problems, sims, params=None, whole=False):
     """Return {channel: ResidualStats} of ``sims`` on the held-out parts (record rate).
 
     ``problems`` and ``sims`` are lists (one per record) or a single pair. Each
     channel carries the residual-input independence test (noise.structure_test),
     pooled over the records, against the input-driven signals of ``params``
-    (per record; default each problem's).
+    (per record; default each problem's). ``whole``: on the whole records
+    (training and held-out parts) instead.
     """
     if not isinstance(problems, (list, tuple)):
         problems, sims = [problems], [sims]
@@ -45,7 +49,7 @@ def channel_stats(problems, sims, params=None):
         segments, measured_all, predicted_all, temp_all = [], [], [], []
         swing = 0.0
         for p, sim, par in zip(problems, sims, params):
-            r, s = p.record, p.full_split
+            r, s = p.record, (0 if whole else p.full_split)
             measured, predicted = getattr(r, c), getattr(sim, c)
             tau = thermal_time_constant(par.fiber, par.thermal)
             rise = sim.temperature[s:] - par.thermal.ambient_temperature
@@ -63,6 +67,22 @@ def channel_stats(problems, sims, params=None):
                                 np.concatenate(predicted_all), first.sigma[c],
                                 first.sample_rate, np.concatenate(temp_all), structure=test)
     return out
+
+
+NOTHING_TO_EXPLAIN = ('no effect searched: the inputs predict nothing beyond the noise in '
+                      "the calibrated nominal model's residual (held-out part or whole "
+                      'record)')
+
+
+def needs_explaining(*stats):
+    """Return the channels (list) of {channel: ResidualStats} with structure left.
+
+    Empty when what the model leaves is noise by the verdict's own test
+    (noise.structure_test): then there is nothing for an effect to explain,
+    and any effect a search would add could only fit noise. ``stats`` may be
+    several such dicts (held-out part, whole record): structure in any counts.
+    """
+    return [st.channel for part in stats for st in part.values() if st.structured]
 
 
 def _structure_summary(stats):
@@ -104,3 +124,26 @@ def decide_verdict(effects, nominal_stats, extended_stats):
     return 'unexplained', (f'unexplained structure remains {what}: the inputs still predict '
                            f'the held-out residual of {", ".join(structured)} ({summary})'
                            f'{caution}')
+
+
+def noise_model_gain(problem, base_residuals, values, added_params):
+    """Return the BIC-penalised held-out gain of ``values`` under the verdict's noise model.
+
+        D - k ln(n)
+
+    D from noise.heldout_deviance_gain (per record an offset and a drift are
+    noise, the rest AR(p) noise: the model the verdict judges residuals by),
+    n its sample count, k the added parameters. Positive: the candidate
+    predicts the held-out part better than k parameters fitted to noise would.
+    ``base_residuals`` is ``problem.heldout_residuals`` of the base.
+    """
+    cand = problem.heldout_residuals(values)
+    if base_residuals is None or cand is None:
+        return -math.inf
+    rates = problem.coarse_rates
+    pairs = [[(b[c], r[c], rate) for b, r, rate in zip(base_residuals, cand, rates)]
+             for c in problem.channels]
+    deviance, n = heldout_deviance_gain(pairs)
+    if n < added_params + 2:
+        return -math.inf
+    return deviance - added_params * math.log(n)
