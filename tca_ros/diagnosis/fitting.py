@@ -53,6 +53,7 @@ DIFF_STEP = 2e-3  # finite-difference step in the unit-scaled parameters
 MIN_GAIN_PERCENT = 1.0  # held-out RMS gain below this is not worth a parameter
 MAX_EFFECTS = 3  # greedy additions
 WHITE_SCORE = 1.05  # held-out RMS (noise sigmas) at which the search stops
+STOP = 'coil.min_pitch_angle_deg'  # the coil-contact parameter (deg)
 PROGRESS_INTERVAL = 0.25  # s between progress-bar redraws
 
 
@@ -200,7 +201,10 @@ class FitProblem:
                 TEMPERATURE_NOISE_FLOOR, quantisation_sigma(record.temperature)))
         self.measured = {c: getattr(record, c) for c in self.channels}
         self.coarse_measured = {c: self.measured[c][self.index] for c in self.channels}
-        self.correction = {}  # kind of coarse simulation -> {channel: defect correction}
+        # (kind of coarse simulation, base stop) -> {channel: defect correction}
+        self.correction = {}
+        self._nominal_stop = math.degrees(params.coil.min_pitch_angle)
+        self.stop_moves = False  # a fit moves the coil stop: all its values run full
         self.reduced = reduced
         # nominal parameters refitted with every refined candidate and every polish, so an
         # effect gets no credit for what a recalibration absorbs (set by diagnose)
@@ -231,15 +235,18 @@ class FitProblem:
         difference is added. Returns None when the simulation fails.
         """
         end = self.m if end is None else end
-        key = (tuple(sorted(values.items())), end)
+        # a coil stop that moves from the base's is a mass hitting a new stop: the
+        # reduction's lag towards it differs from (18) by more than the defect correction
+        # at the base holds, so such values (and every value of a fit that moves the
+        # stop, so its finite differences compare like with like) run the full dynamics;
+        # a stop held at the base's value is in the correction like any other effect
+        stop = values.get(STOP, self._nominal_stop)
+        moved = self.stop_moves or abs(stop - self._base_stop()) > 1e-9
+        kind = 'full' if moved else None
+        key = (tuple(sorted(values.items())), end, kind)
         if key in self._cache:
             return self._cache[key]
         self.progress.tick()
-        # a coil stop that binds is a mass hitting a stop: the reduction's lag towards it
-        # differs from (18) by more than the defect correction at a contact-free base holds
-        stop = values.get('coil.min_pitch_angle_deg')
-        nominal_stop = math.degrees(self.params.coil.min_pitch_angle)
-        kind = 'full' if stop is not None and abs(stop - nominal_stop) > 1e-9 else None
         try:
             kind, sim = self._coarse_simulation(self.parameters(values), end, kind)
             correction = self._correction(kind)
@@ -251,6 +258,10 @@ class FitProblem:
             out = None
         self._cache[key] = out
         return out
+
+    def _base_stop(self):
+        """Return the coil stop (deg) of the base values."""
+        return self.base_values.get(STOP, self._nominal_stop)
 
     def _coarse_simulation(self, params, end, kind=None):
         """Return (kind, SimulationResult) on the coarse grid up to index ``end``.
@@ -274,14 +285,17 @@ class FitProblem:
 
         The base model at the record rate minus the base on the coarse grid by
         the same kind of simulation, so a candidate simulated by either kind is
-        corrected by its own kind's error (computed on first need per base).
+        corrected by its own kind's error (computed on first need per base and
+        base stop: a brief refit that drops a coil stop from the base must not
+        take the reduction's error with the stop binding).
         """
-        if kind not in self.correction:
+        key = (kind, self._base_stop())
+        if key not in self.correction:
             _, coarse = self._coarse_simulation(self.parameters(self.base_values), self.m, kind)
             full = self.simulate_full(self.base_values)
-            self.correction[kind] = {c: getattr(full, c)[self.index] - getattr(coarse, c)
-                                     for c in self.channels}
-        return self.correction[kind]
+            self.correction[key] = {c: getattr(full, c)[self.index] - getattr(coarse, c)
+                                    for c in self.channels}
+        return self.correction[key]
 
     def set_base(self, values):
         """Make ``values`` the base model: recompute the defect correction.
@@ -293,6 +307,14 @@ class FitProblem:
         self.correction = {}
         self._cache.clear()
         coarse = self.simulate_coarse(values)
+        if coarse is not None and abs(self._base_stop() - self._nominal_stop) > 1e-9:
+            # a base with a stop: its full-dynamics correction too, so fits that move the
+            # stop (and the brief refits of prune_effects) are corrected at this base
+            self.stop_moves = True
+            try:
+                coarse = self.simulate_coarse(values)
+            finally:
+                self.stop_moves = False
         if coarse is None:  # e.g. the coarse grid beyond the explicit stability limit
             raise ValueError(f'values {values}: the coarse fit grid cannot simulate them')
         return full
@@ -378,18 +400,22 @@ class FitProblem:
             self.progress.label = f'fit {candidate.name}'
             return self.train_residuals(values_at(z))
 
-        if refine:
-            sol = least_squares(fun, np.asarray(x0), bounds=(0.0, 1.0), method='trf',
-                                diff_step=DIFF_STEP, max_nfev=max_nfev, xtol=1e-4,
-                                ftol=1e-6, x_scale=1.0)
-            z, residual, jac = sol.x, sol.fun, sol.jac
-            success = bool(sol.success) or sol.status == 0
-            message = sol.message if sol.status != 0 else 'iteration limit reached'
-        else:
-            z = np.asarray(x0)
-            residual = fun(z)
-            jac = None
-            success, message = True, 'screened only (not refined)'
+        self.stop_moves = refine and any(s.name == STOP for s in spaces)
+        try:
+            if refine:
+                sol = least_squares(fun, np.asarray(x0), bounds=(0.0, 1.0), method='trf',
+                                    diff_step=DIFF_STEP, max_nfev=max_nfev, xtol=1e-4,
+                                    ftol=1e-6, x_scale=1.0)
+                z, residual, jac = sol.x, sol.fun, sol.jac
+                success = bool(sol.success) or sol.status == 0
+                message = sol.message if sol.status != 0 else 'iteration limit reached'
+            else:
+                z = np.asarray(x0)
+                residual = fun(z)
+                jac = None
+                success, message = True, 'screened only (not refined)'
+        finally:
+            self.stop_moves = False
         values = values_at(z)
         n = residual.size
         failed = bool(np.all(residual == FAILED_RESIDUAL))

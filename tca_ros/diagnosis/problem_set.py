@@ -43,6 +43,16 @@ class FitProblemSet(FitProblem):
         for p in self.problems:
             p.base_values = dict(values)
 
+    @property
+    def stop_moves(self):
+        """Return True while a fit moves the coil stop (every record runs full)."""
+        return self.problems[0].stop_moves
+
+    @stop_moves.setter
+    def stop_moves(self, flag):
+        for p in self.problems:
+            p.stop_moves = flag
+
     def parameters(self, values):
         """Return the first record's params with ``values`` applied."""
         return self.problems[0].parameters(values)

@@ -47,6 +47,10 @@ STABILITY_RECHECK = 100  # steps between re-evaluations of the stability limit (
 RK4_REAL_LIMIT = 2.785  # h lambda on the negative real axis where classical RK4 turns unstable
 THERMAL_CHECK_RISE = 300.0  # K above ambient at which the nonlinear thermal limit is also taken
 EQUILIBRIUM_TOLERANCE = 0.05  # relative tension error beyond which a start state is refused
+# relative change of the sample interval below which the step is kept: a uniform grid read
+# back from text varies by ~1e-12 (0.01 s written as 0.0100), and each re-planned step costs
+# a stiffness evaluation (two fixed-point tension solves)
+STEP_CHANGE_TOLERANCE = 1e-9
 
 
 class StabilityError(ValueError):
@@ -510,7 +514,7 @@ def simulate(params, time, power, load=None, model=None, physics_rate=1000.0,
     for i in range(1, time.size):
         span = time[i] - time[i - 1]
         steps = max(1, int(round(span / dt)))
-        if abs(sim.dt - span / steps) > 1e-12 * sim.dt:
+        if abs(sim.dt - span / steps) > STEP_CHANGE_TOLERANCE * sim.dt:
             sim.set_dt(span / steps)
         for _ in range(steps):
             applied = power[i - 1]

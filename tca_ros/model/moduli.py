@@ -12,7 +12,7 @@ import math
 from tca_ros.model.fiber import heated_fiber_radius
 
 
-@dataclass(frozen=True)
+@dataclass(slots=True)  # built once per f_rod evaluation: a frozen one costs twice as much
 class Section:
     """Cross-section stiffnesses of Eq. (8): EI, GJ (N m^2) and GA, EA (N)."""
 

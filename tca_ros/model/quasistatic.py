@@ -562,9 +562,12 @@ def _friction_response(start, acting, edges, static_offset):
     low_s, high_s, low_k, high_k = edges
     y = np.empty_like(low_s)
     position = start
-    for k in range(y.size):
-        position = fx.friction_play(position, (low_s[k], high_s[k]), (low_k[k], high_k[k]))
-        y[k] = position
+    out = []
+    for ls, hs, lk, hk in zip(low_s.tolist(), high_s.tolist(), low_k.tolist(),
+                              high_k.tolist()):
+        position = fx.friction_play(position, (ls, hs), (lk, hk))
+        out.append(position)
+    y[:] = out
     width = np.maximum(high_s - low_s, 1e-15)
     fraction = np.clip((y - low_s) / width, 0.0, 1.0)
     return y, acting + static_offset * (1.0 - 2.0 * fraction)
@@ -587,6 +590,10 @@ def _mechanical_lag(time, y_eq, stiffness, damping):
     tau = np.maximum(tau, 1e-12)
     a = np.exp(-dt / tau)
     c = (1.0 - a) * tau / dt
-    for k in range(dt.size):
-        y[k + 1] = a[k] * y[k] + (1.0 - c[k]) * y_eq[k + 1] + (c[k] - a[k]) * y_eq[k]
+    # the recursion on Python floats: the same arithmetic, without a NumPy scalar per term
+    a, c, target = a.tolist(), c.tolist(), y_eq.tolist()
+    out = [target[0]]
+    for k in range(len(a)):
+        out.append(a[k] * out[k] + (1.0 - c[k]) * target[k + 1] + (c[k] - a[k]) * target[k])
+    y[:] = out
     return y
