@@ -1,4 +1,4 @@
-"""Fit candidate extensions to a record and choose among them on held-out data.
+"""Fit candidate extensions to a record: one bounded fit, its uncertainties, its score.
 
 Method (docs/diagnosis.md)
 --------------------------
@@ -16,14 +16,8 @@ Method (docs/diagnosis.md)
 4. Each candidate is screened at a few starting magnitudes; the best few (and
    the best of each measured channel) are refined by bounded nonlinear least
    squares (scipy trust-region reflective).
-5. The held-out cost decides. A candidate is added when its held-out gain is
-   significant after a BIC penalty on an effective sample count that accounts
-   for residual autocorrelation [3 in residuals.py]; the search repeats greedily
-   with the added effects as the new base (refitting them jointly with each new
-   candidate) until the held-out residual is within 5 % of the sensor noise;
-   effects made redundant by later ones are then removed (backward elimination).
+5. The search over candidates that uses these fits: ``search.py``.
 """
-import dataclasses
 from dataclasses import dataclass, field
 import math
 import sys
@@ -34,7 +28,6 @@ from scipy.optimize import least_squares
 
 from tca_ros.diagnosis.noise import quantisation_sigma
 from tca_ros.diagnosis.residuals import lag_one_autocorrelation, noise_sigma
-from tca_ros.diagnosis.verdict import noise_model_gain
 from tca_ros.model.dynamics import simulate
 from tca_ros.model.params import SPECS
 from tca_ros.model.quasistatic import QuasiStaticUnsupported, simulate_quasistatic
@@ -45,14 +38,8 @@ TEMPERATURE_NOISE_FLOOR = 1e-3  # K
 TRAIN_FRACTION = 0.7  # leading share of the record used for fitting
 FIT_RATE_HZ = 10.0  # coarse grid of the fits; defect correction restores accuracy
 MIN_PHYSICS_RATE_HZ = 200.0  # record-rate simulations step at least this fast (Hz)
-REFINE_TOP = 3  # candidates refined by least squares after screening
 MAX_NFEV = 8  # least-squares iterations (function evaluations, Jacobian excluded)
-POLISH_NFEV = 10  # iterations of the joint refit after an effect is added
-PRUNE_NFEV = 4  # iterations of the brief refit when an effect is tentatively removed
 DIFF_STEP = 2e-3  # finite-difference step in the unit-scaled parameters
-MIN_GAIN_PERCENT = 1.0  # held-out RMS gain below this is not worth a parameter
-MAX_EFFECTS = 3  # greedy additions
-WHITE_SCORE = 1.05  # held-out RMS (noise sigmas) at which the search stops
 STOP = 'coil.min_pitch_angle_deg'  # the coil-contact parameter (deg)
 PROGRESS_INTERVAL = 0.25  # s between progress-bar redraws
 
@@ -461,188 +448,3 @@ def _standard_errors(spaces, z, residual, jac):
         var = cov[i, i]
         out[s.name] = abs(slope) * math.sqrt(var) if var >= 0.0 else math.nan
     return out
-
-
-@dataclass
-class SearchRound:
-    """One greedy round: the scores of every remaining candidate, best first."""
-
-    base_effects: list
-    base_score: float
-    base_rmse: dict
-    scores: list
-    accepted: str = ''
-    restarted: bool = False  # the search restarted from this round's runner-up
-
-
-def search_effects(problem, candidates, max_effects=MAX_EFFECTS, refine_top=REFINE_TOP,
-                   min_gain_percent=MIN_GAIN_PERCENT):
-    """Add candidates greedily while the held-out gain is significant.
-
-    Greedy forward selection can be led astray when one effect alone mimics two
-    (creep plus power loss look like extra softening). So when the greedy path
-    ends with structured residuals, it is restarted once from the runner-up of
-    the first round (a beam of width two at the root), and the path with the
-    lower held-out BIC wins.
-
-    Returns (effects found in order, values of the extended model, list of
-    SearchRound). ``problem`` must have its nominal base set; on return its base
-    is the extended model.
-    """
-    if problem.recalibration:
-        # the recalibrated nominal parameters are refitted under the defect correction
-        # first, so no candidate is credited with what that refit alone gains
-        polish_effects(problem, [], {})
-    nominal = dict(problem.base_values)
-    found, values, rounds = _greedy(problem, candidates, max_effects, refine_top,
-                                    min_gain_percent)
-    first = rounds[0].scores if rounds else []
-    runner_up = next((s for s in first[1:2] if s.refined and s.significant), None)
-    if found and runner_up is not None and _final_score(problem, values) > WHITE_SCORE:
-        best_bic = _heldout_bic(problem, values, found, candidates)
-        problem.set_base(nominal)
-        alt_found, alt_values, alt_rounds = _greedy(problem, candidates, max_effects,
-                                                    refine_top, min_gain_percent,
-                                                    first=runner_up)
-        if _heldout_bic(problem, alt_values, alt_found, candidates) < best_bic:
-            alt_rounds[0] = dataclasses.replace(rounds[0], accepted=runner_up.name,
-                                                restarted=True)
-            found, values, rounds = alt_found, alt_values, alt_rounds
-        else:
-            problem.set_base(values)
-    found, values = prune_effects(problem, found, values, candidates)
-    return found, values, rounds
-
-
-def prune_effects(problem, found, values, candidates):
-    """Drop effects made redundant by later additions (backward elimination).
-
-    An effect accepted early, while the residuals were structured, can become
-    redundant once a later effect explains the same signature. Each found effect
-    is removed in turn and the rest refitted briefly under the current defect
-    correction; the removal that lowers the held-out BIC (n ln(S/n) + k ln n) most
-    is made (and polished), and the step repeats. Returns (effects, values); the
-    problem's base is left at the returned model.
-    """
-    from tca_ros.diagnosis.candidates import Candidate
-    spaces_of = {c.name: c.spaces for c in candidates}
-    best_bic = _heldout_bic(problem, values, found, candidates)
-    while len(found) > 1:
-        trials = []
-        for name in found:
-            rest = [n for n in found if n != name]
-            dropped = {s.name for s in spaces_of[name]}
-            reduced = {k: v for k, v in values.items() if k not in dropped}
-            spaces = tuple(s for n in rest for s in spaces_of[n])
-            problem.base_values = reduced
-            fit = problem.fit(Candidate('+'.join(rest), spaces, ()),
-                              [reduced[s.name] for s in spaces], max_nfev=PRUNE_NFEV)
-            reduced.update(fit.params)
-            trials.append((_heldout_bic(problem, reduced, rest, candidates), rest, reduced))
-        bic, rest, reduced = min(trials, key=lambda t: t[0])
-        if bic > best_bic:
-            break
-        problem.set_base(reduced)
-        reduced = polish_effects(problem, rest, spaces_of)
-        best_bic, found, values = _heldout_bic(problem, reduced, rest, candidates), rest, reduced
-    problem.set_base(values)
-    return found, values
-
-
-def _final_score(problem, values):
-    cost, _, n, _ = problem.heldout(values)
-    return math.sqrt(cost / n)
-
-
-def _heldout_bic(problem, values, found, candidates):
-    """Return n ln(S / n) + k ln(n) of the held-out residuals of ``values`` (-)."""
-    cost, _, n, _ = problem.heldout(values)
-    k = sum(c.n_params for c in candidates if c.name in found)
-    return n * math.log(cost / n) + k * math.log(n)
-
-
-def _greedy(problem, candidates, max_effects, refine_top, min_gain_percent, first=None):
-    """Run forward selection from the problem's base; ``first`` forces round one."""
-    found, rounds = [], []
-    remaining = [c for c in candidates if c.starts]
-    spaces_of = {c.name: c.spaces for c in candidates}
-    values = dict(problem.base_values)
-    if first is not None:
-        rounds.append(None)  # the caller fills in the first round it forced
-        found.append(first.name)
-        problem.set_base(first.values)
-        values = polish_effects(problem, found, spaces_of)
-        remaining = [c for c in remaining if c.name != first.name]
-    while remaining and len(found) < max_effects:
-        base_cost, base_rmse, n, _ = problem.heldout(values)
-        base_score = math.sqrt(base_cost / n)
-        if found and base_score <= WHITE_SCORE:
-            break  # the residual is noise: nothing left for a further effect to explain
-        base_residuals = problem.heldout_residuals(values)
-        screened = [(problem.screen(c), c) for c in remaining]
-        screened.sort(key=lambda item: item[0][0][0])
-        scores = []
-        # forward selection with refit: the effects already found are refitted jointly
-        # with each refined candidate, so an earlier effect that absorbed part of this
-        # one's signature can give it back
-        free = tuple(s for name in found for s in spaces_of[name]) + problem.recalibration
-
-        def evaluate(trials, cand, refine):
-            fit = problem.fit(cand, trials[0][1], refine=refine, free=free if refine else ())
-            score = problem.score(fit, refine)
-            score.criterion = noise_model_gain(problem, base_residuals, score.values,
-                                               cand.n_params)
-            gain = 100.0 * (1.0 - score.heldout_score / base_score)
-            score.significant = bool(fit.success and score.criterion > 0.0
-                                     and gain >= min_gain_percent)
-            return score
-
-        by_name = {cand.name: (trials, cand) for trials, cand in screened}
-        # refine the best few by total cost, and the best screen of each channel: an
-        # effect that alone explains the temperature points at a thermal cause even
-        # when displacement errors dominate the total
-        refine = {cand.name for _, cand in screened[:refine_top]}
-        for i in range(len(problem.channels)):
-            refine.add(min(screened, key=lambda item: min(t[2][i] for t in item[0]))[1].name)
-        scores = [evaluate(trials, cand, cand.name in refine) for trials, cand in screened]
-        scores.sort(key=lambda s: s.heldout_cost)
-        while not scores[0].refined:
-            # a screened start beat the refined fits on held-out data: refine it too
-            scores[0] = evaluate(*by_name[scores[0].name], True)
-            scores.sort(key=lambda s: s.heldout_cost)
-        rnd = SearchRound(base_effects=list(found), base_score=base_score,
-                          base_rmse=base_rmse, scores=scores)
-        rounds.append(rnd)
-        best = scores[0]
-        if not (best.refined and best.significant):
-            break
-        rnd.accepted = best.name
-        found.append(best.name)
-        problem.set_base(best.values)
-        values = polish_effects(problem, found, spaces_of)
-        remaining = [c for c in remaining if c.name != best.name]
-    return found, values, rounds
-
-
-def polish_effects(problem, found, spaces_of, max_nfev=POLISH_NFEV):
-    """Refit the found effects jointly under the current base's defect correction.
-
-    The correction was computed for the model the candidate was fitted against;
-    refitting now makes the base as good as it can be before the next round, so
-    a further candidate is not credited with the refit's gain. Returns the values
-    of the (re-based) model.
-    """
-    from tca_ros.diagnosis.candidates import Candidate
-    values = dict(problem.base_values)
-    spaces = tuple(s for name in found for s in spaces_of[name]) + problem.recalibration
-    joint = Candidate('+'.join(found), spaces, ())
-    fit = problem.fit(joint, [values[s.name] for s in spaces], refine=True,
-                      max_nfev=max_nfev)
-    polished = dict(values)
-    polished.update(fit.params)
-    before = problem.train_residuals(values)
-    after = problem.train_residuals(polished)
-    if fit.success and after @ after < before @ before:
-        problem.set_base(polished)
-        return polished
-    return values

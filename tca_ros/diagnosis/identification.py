@@ -13,8 +13,9 @@ import numpy as np
 from tca_ros.diagnosis.candidates import ABSORBED, absorbed_candidates, build_candidates, \
     RECALIBRATION, recalibration_spaces
 from tca_ros.diagnosis.data import read_record, record_config
-from tca_ros.diagnosis.fitting import FitProblem, Progress, search_effects
+from tca_ros.diagnosis.fitting import FitProblem, Progress
 from tca_ros.diagnosis.record_ops import decimated, leading_part
+from tca_ros.diagnosis.search import search_effects
 from tca_ros.diagnosis.verdict import channel_stats, decide_verdict, gain, \
     needs_explaining, NOTHING_TO_EXPLAIN, pooled_heldout_rmse
 

@@ -3,10 +3,9 @@
 Real records carry noise that is not white: encoder quantisation, 1/f wander and
 drift, stick-slip steps, slow sensor offsets. A test that compares the residual
 RMS with a white-noise level calls every real record "unexplained", and one that
-counts samples as independent makes every candidate "significant" (the search
-counts effective samples from the residual's autocorrelation: fitting.py). The
-question the verdict asks is answered with a model of the noise fitted to the
-data:
+counts samples as independent makes every candidate "significant". Both the
+verdict and the search's acceptance of a candidate (heldout_deviance_gain) are
+answered with a model of the noise fitted to the data:
 
 **Is what is left noise?** (:func:`structure_test`) Noise, however coloured,
 does not depend on the inputs; missing physics does. The residual is

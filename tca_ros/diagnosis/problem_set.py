@@ -4,7 +4,7 @@ Each record keeps its own FitProblem (its grid, its split in time, its mass and
 initial load, its defect correction); the effect parameters are shared. The
 training residuals of all records are stacked channel by channel (so a
 per-channel cost still reads as one block per channel) and the held-out costs
-are summed: the search (fitting.search_effects) sees one problem.
+are summed: the search (search.search_effects) sees one problem.
 """
 import numpy as np
 
