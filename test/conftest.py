@@ -16,13 +16,18 @@ def self_coiled():
     return load_params('self_coiled')
 
 
-#: Test files that start ROS nodes: one xdist worker runs them all, one at a time, so
-#: two nodes of different tests never share a DDS domain at once.
-ROS_TEST_PREFIXES = ('test_node', 'test_install_layout')
+_ONCE = {}
 
 
-def pytest_collection_modifyitems(config, items):
-    """Put every ROS test in one xdist group (``--dist loadgroup`` in the Makefile)."""
-    for item in items:
-        if item.path.name.startswith(ROS_TEST_PREFIXES):
-            item.add_marker(pytest.mark.xdist_group('ros'))
+def once_per_worker(key, compute):
+    """Return compute() computed once per test process (xdist worker) for ``key``.
+
+    pytest-xdist tears a module fixture down whenever a worker does not yet know its
+    next test, so an expensive module fixture could run several times on one worker
+    (seen with --dist loadgroup: the calibration and lockstep fixtures twice each).
+    ``make test`` sends each file to one worker (--dist loadfile); this keeps such a
+    fixture to one computation even if a file's tests are split.
+    """
+    if key not in _ONCE:
+        _ONCE[key] = compute()
+    return _ONCE[key]

@@ -24,6 +24,8 @@ from tca_ros.model.muscle import describe_muscle, MuscleSpec
 from tca_ros.model.params import dump_params, GRAVITY, load_params
 from tca_ros.model.thermal import heat_capacity, thermal_conductance
 
+from conftest import once_per_worker  # noqa: I100
+
 SEEDS = range(5)
 COVERAGE_SIGMAS = 2.0  # a Gaussian estimate falls within 2 SE 95 % of the time
 MIN_COVERAGE = 0.8  # over every determined (parameter, seed) pair
@@ -32,11 +34,13 @@ MAX_SIGMAS = 4.0  # no determined estimate this far from the truth
 
 @pytest.fixture(scope='module')
 def calibrations():
-    out = []
-    for seed in SEEDS:
-        s = realistic_set(seed, drift=0.0)
-        out.append((s, calibrate(s.records, s.start, model='cst', check=False)))
-    return out
+    def compute():
+        out = []
+        for seed in SEEDS:
+            s = realistic_set(seed, drift=0.0)
+            out.append((s, calibrate(s.records, s.start, model='cst', check=False)))
+        return out
+    return once_per_worker('test_calibration.calibrations', compute)
 
 
 def test_recovers_identifiable_parameters_within_their_uncertainty(calibrations):

@@ -4,6 +4,7 @@ import pytest
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 
+from conftest import once_per_worker  # noqa: I100
 from test_node_harness import (  # noqa: I100
     module_command, NodeProcess, Probe, stamp_seconds, start_tca)
 
@@ -53,8 +54,10 @@ def _closed_loop_run(log_dir, tag):
 
 @pytest.fixture(scope='module')
 def runs(tmp_path_factory):
-    log_dir = tmp_path_factory.mktemp('clock')
-    return [_closed_loop_run(log_dir, tag) for tag in ('a', 'b')]
+    def compute():
+        log_dir = tmp_path_factory.mktemp('clock')
+        return [_closed_loop_run(log_dir, tag) for tag in ('a', 'b')]
+    return once_per_worker('test_node_clock.runs', compute)
 
 
 def test_ticks_are_contiguous_from_zero(runs):

@@ -21,8 +21,24 @@ PYTHON = sys.executable
 STOP_GRACE = 5.0  # s between SIGINT and SIGKILL
 READY_TIMEOUT = 30.0  # s for a node to log 'ready' (the rod table takes ~2 s on 2 cores)
 
-# One random domain per test session, set before rclpy is initialised anywhere.
-os.environ.setdefault('TCA_TEST_DOMAIN', str(random.randint(20, 99)))
+
+def _test_domain():
+    """Return a ROS_DOMAIN_ID for this test process: random per run, distinct per worker.
+
+    xdist workers run node tests of different files at the same time; they share the
+    run's PYTEST_XDIST_TESTRUNUID, so one base drawn from it plus the worker's index
+    keeps them apart (two independent draws in 20-99 would collide in 1 run of 80).
+    """
+    run = os.environ.get('PYTEST_XDIST_TESTRUNUID')
+    worker = os.environ.get('PYTEST_XDIST_WORKER', 'gw0')
+    if run is None:
+        return random.randint(20, 99)
+    base = 20 + random.Random(run).randrange(0, 70, 10)  # 20, 30, ..., 80
+    return base + int(worker.lstrip('gw') or 0) % 10
+
+
+# One domain per test process, set before rclpy is initialised anywhere.
+os.environ.setdefault('TCA_TEST_DOMAIN', str(_test_domain()))
 os.environ['ROS_DOMAIN_ID'] = os.environ['TCA_TEST_DOMAIN']
 os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
 

@@ -15,6 +15,7 @@ import pytest
 from sensor_msgs.msg import JointState, Temperature
 from std_msgs.msg import Float64
 
+from conftest import once_per_worker  # noqa: I100
 from test_node_harness import CONFIG, Probe, stamp_seconds, start_tca  # noqa: I100
 
 pytestmark = pytest.mark.timeout(400)
@@ -93,10 +94,11 @@ def record_node(log_dir, bag_path):
 
 @pytest.fixture(scope='module')
 def recording(tmp_path_factory):
-    work = tmp_path_factory.mktemp('recording')
-    bag = work / 'bag'
-    joints = record_node(work, bag)
-    return bag, joints
+    def compute():
+        work = tmp_path_factory.mktemp('recording')
+        bag = work / 'bag'
+        return bag, record_node(work, bag)
+    return once_per_worker('test_node_recording_diagnosis.recording', compute)
 
 
 def test_the_bag_keeps_the_load_step_and_the_config_load_before_it(recording):
