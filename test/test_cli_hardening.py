@@ -303,3 +303,10 @@ def test_record_header_may_name_a_params_file_beside_it(tmp_path):
     rec = read_record(record(tmp_path, tca='mine'))
     assert record_config(rec) == str(tmp_path / 'mine.yaml')
     assert record_config(read_record(record(tmp_path, tca='conical'))) == 'conical'
+
+
+def test_a_conical_config_with_a_helix_model_is_bad_input(tmp_path, capsys):
+    """fuzz_cli case 178: exit 1 from deep in the model; now refused at load, exit 2."""
+    path = profile(tmp_path, 'time,power\n0,1\n1,0\n')
+    assert_refused(run(SIMULATE + [path, '--config', 'conical', '--model', 'cst'], capsys),
+                   "parameter 'model' = 'cst': a conical TCA needs the rod model")

@@ -480,11 +480,16 @@ def _check_consistency(p):
     """Cross-parameter rules that a single range cannot express.
 
     Each rule keeps the model finite: the fiber loses heat (eq. (1) has a finite time
-    constant), the coil is wider than its fiber, creep stays within the coil's stretch;
-    and physical (limits.parameter_limit_violation): coils that do not overlap, a load
-    within the thread's strength, an untwist defined up to the melt.
+    constant), a conical coil runs the rod model, the coil is wider than its fiber,
+    creep stays within the coil's stretch; and physical
+    (limits.parameter_limit_violation): coils that do not overlap, a load within the
+    thread's strength, an untwist defined up to the melt.
     """
     _check_thermal(p)
+    if p.coil.shape != 'helix' and p.model != 'rod':
+        raise ParameterError(
+            f"parameter 'model' = {p.model!r}: a {p.coil.shape} TCA needs the rod model "
+            '(cst and love assume a uniform helix); set model to rod')
     if p.coil.shape == 'helix' and p.coil.radius < p.fiber.radius:
         raise ParameterError(
             f"parameter 'coil.radius' = {p.coil.radius:g}: must be at least fiber.radius "
