@@ -18,7 +18,6 @@ from rclpy._rclpy_pybind11 import RCLError
 from rclpy.clock import Clock, ClockType
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
-from rclpy.parameter import Parameter
 from rclpy.qos import QoSProfile
 from rclpy.qos_overriding_options import QoSOverridingOptions
 from rosgraph_msgs.msg import Clock as ClockMsg
@@ -34,9 +33,9 @@ from tca_ros.node_clock import ClockMixin, NS, time_msg, WARN_PERIOD
 from tca_ros.node_diagnostics import DiagnosticsPublisher
 from tca_ros.node_outputs import non_finite, OutputsMixin
 from tca_ros.node_params import (  # noqa: F401  (re-exported: the node's parameter API)
-    build_simulator, check_model_supports, check_ros_arguments, check_unknown_overrides,
+    build_simulator, check_ros_arguments, check_unknown_overrides,
     descriptor, GuardedParameterService, init_quietly, INTEGER_NAMES, log_fatal,
-    model_for_node, NAMESPACED, namespaced_name, NODE_SCHEMA, NODE_SPECS,
+    NAMESPACED, namespaced_name, NODE_SCHEMA, NODE_SPECS,
     numbers_as_declared_types, physics_dt, physics_steps_per_tick, READ_ONLY, REBUILD,
     validate_node_values)
 from tca_ros.node_reconfigure import ParametersMixin
@@ -73,11 +72,7 @@ class TcaSimNode(ClockMixin, OutputsMixin, ParametersMixin, Node):
         check_unknown_overrides(self)  # a misspelt name is refused, as tca_sim does
         tca_values = {s.name: self.get_parameter(s.name).value for s in SCHEMA}
         node_values = {s.name: self.get_parameter(s.name).value for s in NODE_SCHEMA}
-        self._params, warning = model_for_node(
-            from_flat_dict(tca_values, source='ros parameters'))
-        if warning:
-            self.get_logger().warning(warning)
-            self.set_parameters([Parameter('model', value=self._params.model)])
+        self._params = from_flat_dict(tca_values, source='ros parameters')
         self._cfg = validate_node_values(node_values)
         self._sim = build_simulator(self._params, self._cfg)
         # 1000.0 from a params file is stored as the INTEGER it names, 25 for a DOUBLE

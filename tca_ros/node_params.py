@@ -119,27 +119,6 @@ def validate_node_values(values):
     return out
 
 
-def check_model_supports(params):
-    """Raise ParameterError (one line) for a model the node cannot step for this TCA.
-
-    A conical coil needs the rod model (cst and love assume a uniform helix); its
-    dynamics read the conical rod table (model.conical_table).
-    """
-    if params.model != 'rod' and params.coil.shape != 'helix':
-        raise ParameterError(
-            f"parameter 'model' = {params.model!r}: a {params.coil.shape} TCA needs the rod "
-            'model (cst and love assume a uniform helix); set model to rod')
-
-
-def model_for_node(params):
-    """Return (params, warning) for the node: every shipped TCA runs as configured.
-
-    Kept for callers of the former conical fallback to cst; the warning is empty.
-    """
-    check_model_supports(params)
-    return params, ''
-
-
 def physics_steps_per_tick(node_values):
     """Return the physics steps per publish period (physics_rate / publish_rate, >= 1)."""
     return max(1, round(node_values['physics_rate'] / node_values['publish_rate']))

@@ -15,7 +15,7 @@ from tca_ros.model.params import from_flat_dict, ParameterError, SCHEMA, SPECS
 from tca_ros.model.rigs import start_load
 from tca_ros.node_clock import WARN_PERIOD
 from tca_ros.node_outputs import non_finite
-from tca_ros.node_params import build_simulator, check_model_supports, NODE_SPECS, \
+from tca_ros.node_params import build_simulator, NODE_SPECS, \
     physics_dt, REBUILD, validate_node_values
 
 
@@ -49,7 +49,6 @@ class ParametersMixin:
         cfg = self._cfg
         try:
             params = from_flat_dict(tca_values, source='ros parameters')
-            check_model_supports(params)
             cfg = validate_node_values(node_values)
             rebuild = params != self._params or any(cfg[k] != self._cfg[k] for k in REBUILD)
             if rebuild and params == self._params:
