@@ -63,9 +63,15 @@ def _power_after(probe, topic, value, settle=0.3):
 def test_power_step_heats_with_the_thermal_time_constant(fresh):
     """Eq. (1): T = T_amb + P/(h c_s A)(1 - exp(-t/tau)); fit tau from the topic."""
     power = 1.0  # W
-    for _ in range(25):  # 2.5 s, commands every 0.1 s keep the watchdog fed
-        fresh.publish('power_cmd', Float64(data=power))
-        fresh.spin_for(0.1)
+    # on a loaded machine the probe's commands can come later than the 0.5 s watchdog
+    # allows, which would cut the step: a longer timeout for this test only
+    assert fresh.set_params('tca', command_timeout=5.0)[0].successful
+    try:
+        for _ in range(25):  # 2.5 s, commands every 0.1 s
+            fresh.publish('power_cmd', Float64(data=power))
+            fresh.spin_for(0.1)
+    finally:
+        assert fresh.set_params('tca', command_timeout=0.5)[0].successful
     rows = fresh.records['temperature']
     t = np.array([m.header.stamp.sec + 1e-9 * m.header.stamp.nanosec for _, m in rows])
     temp = np.array([m.temperature for _, m in rows])

@@ -43,6 +43,18 @@ def _run_for(probe, seconds, node):
     probe.spin_for(0.2)  # the other topics of the last ticks
 
 
+def _wait_heating(probe, node):
+    """Spin until the published temperature rises: the power command has landed.
+
+    The node runs as fast as it can, so on a loaded machine a command lands some sim
+    seconds after it was sent; the heating is timed from when it does.
+    """
+    def hot():
+        rows = probe.records['temperature']
+        return rows and rows[-1][1].temperature > 25.5
+    assert probe.spin_until(hot, 60.0), node.log()
+
+
 def _last_common(probe, *topics):
     """Return the messages of ``topics`` at the last stamp they all carry."""
     by_stamp = [{stamp_seconds(m.header): m for _, m in probe.records[t]} for t in topics]
@@ -67,6 +79,7 @@ def test_gauge_rigs_publish_the_tca_force(tmp_path, probe, rig):
     try:
         _start(probe, node)
         probe.publish('power_cmd', Float64(data=1.0))
+        _wait_heating(probe, node)
         _run_for(probe, 12.0, node)
         # the rig decides the topics: fixed while the node runs (docs/rigs.md, R-e)
         refused, = probe.set_params('tca', rig__mode='dead_weight')
@@ -101,6 +114,7 @@ def test_antagonistic_node_turns_its_joint_both_ways(tmp_path, probe):
         _start(probe, node)
         probe.publish('antagonist/power_cmd', Float64(data=0.2))
         probe.publish('power_cmd', Float64(data=1.0))
+        _wait_heating(probe, node)
         _run_for(probe, 12.0, node)
         forward, heated_1, heated_2 = _last_common(
             probe, 'joint_states', 'temperature', 'antagonist/temperature')
