@@ -6,6 +6,8 @@ registers need not import cli.py back.
 import argparse
 import math
 import os
+import signal
+import subprocess
 
 from tca_ros.diagnosis.data import clip, NUMBER
 from tca_ros.model.params import resolve_config
@@ -38,3 +40,15 @@ def finite_float(text):
     if not math.isfinite(value):
         raise argparse.ArgumentTypeError(f'{clip(text)!r} is beyond +-1.8e308')
     return value
+
+
+def stop_gracefully(proc, grace):
+    """Stop a child process: SIGINT, then SIGKILL after ``grace`` s; return its exit code."""
+    if proc.poll() is None:
+        proc.send_signal(signal.SIGINT)
+        try:
+            proc.wait(grace)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait()
+    return proc.returncode

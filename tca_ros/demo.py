@@ -12,10 +12,11 @@ import math
 import os
 import pathlib
 import random
-import signal
 import subprocess
 import sys
 import time
+
+from tca_ros.cli_common import stop_gracefully
 
 STOP_GRACE = 5.0  # s between SIGINT and SIGKILL for the demo's processes
 START_TIMEOUT = 120.0  # s of wall time for the nodes to start (rod table ~2 s)
@@ -48,13 +49,7 @@ def _start(module, ros_args, log_path, env):
 
 
 def _stop(proc, log):
-    if proc.poll() is None:
-        proc.send_signal(signal.SIGINT)
-        try:
-            proc.wait(STOP_GRACE)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait()
+    stop_gracefully(proc, STOP_GRACE)
     log.close()
 
 

@@ -10,7 +10,6 @@ Every wait is bounded by ``timeout`` seconds of wall time without progress.
 """
 import os
 import random
-import signal
 import subprocess
 import sys
 import time
@@ -23,7 +22,7 @@ from rclpy.parameter import parameter_value_to_python
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from std_msgs.msg import Float64, Float64MultiArray
 
-from tca_ros.cli_common import InputError
+from tca_ros.cli_common import InputError, stop_gracefully
 from tca_ros.model.params import from_flat_dict, SCHEMA
 from tca_ros.node_task import parse_record, task_message, TASK_QOS
 from tca_ros.toolkit.scoring import scored_run, task_inputs
@@ -212,14 +211,7 @@ def start_node(namespace, config, model, log_path, timeout):
 
 def stop_node(proc):
     """SIGINT, then SIGKILL after STOP_GRACE s; return the exit code."""
-    if proc.poll() is None:
-        proc.send_signal(signal.SIGINT)
-        try:
-            proc.wait(STOP_GRACE)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait()
-    return proc.returncode
+    return stop_gracefully(proc, STOP_GRACE)
 
 
 def default_log_path(out_dir):

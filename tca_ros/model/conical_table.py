@@ -32,7 +32,7 @@ from tca_ros.model.kinetostatics import KinetostaticModel
 from tca_ros.model.limits import BELOW_AMBIENT_MARGIN, MELT_TEMPERATURE_DEGC
 from tca_ros.model.limits import check_thread_strength
 from tca_ros.model.rod_model import mechanical_params
-from tca_ros.model.rod_table import cubic_hermite, RodTableError
+from tca_ros.model.rod_table import cubic_hermite, hermite_cell, RodTableError
 
 TEMP_STEP = 10.0  # K between rows; interpolation error measured in docs/rod.md
 ETA_POINTS = 801  # uniform points per row after resampling
@@ -186,17 +186,8 @@ class ConicalTable:
 
 def _row_value(row, eta):
     """Hermite value and slope of ``row`` at eta (m), extrapolated past its ends."""
-    step = row.eta_step
-    x = (eta - row.eta0) / step
-    last = row.force.size - 1
-    if x < 0.0:
-        k, u, extra = 0, 0.0, x * step
-    elif x >= last:
-        k, u, extra = last - 1, 1.0, (x - last) * step
-    else:
-        k = int(x)
-        u, extra = x - k, 0.0
-    return cubic_hermite(row.force, row.slope, k, u, step, extra)
+    k, u, extra = hermite_cell(eta, row.eta0, row.eta_step, row.force.size)
+    return cubic_hermite(row.force, row.slope, k, u, row.eta_step, extra)
 
 
 class ConicalKinetostatics(KinetostaticModel):

@@ -142,17 +142,24 @@ class ForceTable:
     def _row(self, i, eta):
         """Hermite value and slope of row i at eta (m), extrapolated past its ends."""
         step = self.eta_step[i]
-        x = (eta - self.eta0[i]) / step
-        last = self.n_eta - 1
-        if x < 0.0:
-            k, u, extra = 0, 0.0, x * step
-        elif x >= last:
-            k, u, extra = last - 1, 1.0, (x - last) * step
-        else:
-            k = int(x)
-            u, extra = x - k, 0.0
-        j = i * self.n_eta + k
-        return cubic_hermite(self.force, self.slope, j, u, step, extra)
+        k, u, extra = hermite_cell(eta, self.eta0[i], step, self.n_eta)
+        return cubic_hermite(self.force, self.slope, i * self.n_eta + k, u, step, extra)
+
+
+def hermite_cell(eta, eta0, step, n):
+    """Return (k, u, extra) of eta (m) on a row of n nodes from eta0 (m), ``step`` apart.
+
+    k is the cell (0 to n - 2), u in [0, 1] the position in it, and extra (m) how far
+    eta lies beyond the row's first or last node (0 inside), for cubic_hermite.
+    """
+    x = (eta - eta0) / step
+    last = n - 1
+    if x < 0.0:
+        return 0, 0.0, x * step
+    if x >= last:
+        return last - 1, 1.0, (x - last) * step
+    k = int(x)
+    return k, x - k, 0.0
 
 
 def cubic_hermite(force, slope, j, u, step, extra):
