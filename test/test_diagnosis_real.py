@@ -121,3 +121,28 @@ def test_several_records_of_one_muscle_are_diagnosed_together(tmp_path, capsys):
     assert doc['records'] == paths
     assert doc['calibrated']['thermal_time_constant']['determined'] is True
     assert doc['effects'] == [], out
+
+
+def test_a_calibration_the_model_cannot_run_falls_back_to_the_description(
+        tmp_path, monkeypatch):
+    # a real record (salp 2 W, encoder_2) calibrated on its training part alone gave a
+    # nominal model whose held-out part went beyond the rod table's 260 degC: the whole
+    # diagnosis failed with exit 1. Now it says so in a note and goes on uncalibrated.
+    from tca_ros.diagnosis import identification
+    path, start = realistic_case(31, [], str(tmp_path), rate=1.0,
+                                 **dict(REALISTIC, duration=100.0))
+    real = identification._calibrate_training_part
+
+    def overheating(records, params_of, *args):
+        cal, _, note = real(records, params_of, *args)
+        hot = [p.with_values(**{'thermal.convection_coefficient':
+                                p.thermal.convection_coefficient / 50.0}) for p in params_of]
+        return cal, hot, note
+
+    monkeypatch.setattr(identification, '_calibrate_training_part', overheating)
+    result = diagnose(path, start, progress=False)
+    assert result.calibration is None
+    # a heat loss 50x too small: the thread breaks (cst) or melts (rod) on the way
+    assert any(n.startswith('calibration not used: its nominal model cannot simulate')
+               for n in result.notes), result.notes
+    assert result.verdict in ('adequate', 'unexplained', 'explained')

@@ -160,7 +160,7 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
     """
     from tca_ros.model.params import load_params
     from tca_ros.diagnosis import fitting
-    from tca_ros.diagnosis.problem_set import FitProblemSet
+    from tca_ros.diagnosis.data import DataError
 
     from tca_ros.model.quasistatic import clear_map_cache
     start = wallclock.perf_counter()
@@ -186,32 +186,35 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
         cal, params_of, note = _calibrate_training_part(records, params_of, model, fraction,
                                                         supply, progress)
         notes.append(note)
-    params = params_of[0]
     bar = Progress(progress, EXPECTED_SIMULATIONS * len(records))
-    problems = [FitProblem(r, p, model=model, physics_rate=physics_rate,
-                           fit_rate=fit_rate or fitting.FIT_RATE_HZ,
-                           train_fraction=fraction, progress=bar)
-                for r, p in zip(records, params_of)]
+    options = dict(model=model, physics_rate=physics_rate,
+                   fit_rate=fit_rate or fitting.FIT_RATE_HZ, train_fraction=fraction,
+                   progress=bar)
+    recalibrated = cal is not None or bool(calibrated)
     try:
-        problem = problems[0] if len(problems) == 1 else FitProblemSet(problems)
-    except ValueError as exc:
-        from tca_ros.diagnosis.data import DataError
+        problems, problem, start_values, nominals = _nominal_problems(
+            records, params_of, recalibrated, options, paths)
+    except DataError:
         bar.close()
-        raise DataError(f'{paths[1]}: row 1, column {"temperature"!r}: {exc}') from None
-    start_values = {}
-    if cal is not None or calibrated:  # the nominal parameters stay free in the search
-        spaces, start_values = recalibration_spaces(params)
-        problem.recalibration = spaces
-        for p in problems:
-            p.recalibration = spaces
-    bar.label = 'nominal'
-    try:
-        problem.set_base(start_values)
-        nominals = [p.simulate_full(start_values) for p in problems]
+        raise
     except (ValueError, ArithmeticError) as exc:  # StabilityError is a ValueError
-        bar.close()
-        raise DiagnosisError(f'{data_path}: the nominal model cannot simulate this record '
-                             f'with model={model} ({exc})') from None
+        if cal is None:
+            bar.close()
+            raise DiagnosisError(f'{data_path}: the nominal model cannot simulate this '
+                                 f'record with model={model} ({exc})') from None
+        # the training part's calibration drove the record outside the model's range
+        # (e.g. beyond the melt on the held-out part): diagnose against the description
+        cal, params_of = None, [_record_nominal(base, r) for r in records]
+        notes[-1] = (f'calibration not used: its nominal model cannot simulate the whole '
+                     f'record ({str(exc).splitlines()[0]})')
+        try:
+            problems, problem, start_values, nominals = _nominal_problems(
+                records, params_of, False, options, paths)
+        except (ValueError, ArithmeticError) as again:
+            bar.close()
+            raise DiagnosisError(f'{data_path}: the nominal model cannot simulate this '
+                                 f'record with model={model} ({again})') from None
+    params = params_of[0]
     candidates, absorbed = absorbed_candidates(
         _candidates(records, params, model, problems, nominals), problem.recalibration)
     if absorbed:
@@ -258,6 +261,32 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
         from tca_ros.diagnosis.report import write_report
         write_report(result, report_dir)
     return result
+
+
+def _nominal_problems(records, params_of, recalibrated, options, paths):
+    """Return (problems, problem or set, start values, nominal simulations).
+
+    ``recalibrated``: the nominal parameters stay free in the search
+    (candidates.recalibration_spaces). Raises ValueError (a DataError for
+    records whose channels differ) or ArithmeticError when the nominal model
+    cannot simulate a record.
+    """
+    from tca_ros.diagnosis.data import DataError
+    from tca_ros.diagnosis.problem_set import FitProblemSet
+    problems = [FitProblem(r, p, **options) for r, p in zip(records, params_of)]
+    try:
+        problem = problems[0] if len(problems) == 1 else FitProblemSet(problems)
+    except ValueError as exc:
+        raise DataError(f'{paths[1]}: row 1, column {"temperature"!r}: {exc}') from None
+    start_values = {}
+    if recalibrated:  # the nominal parameters stay free in the search
+        spaces, start_values = recalibration_spaces(params_of[0])
+        problem.recalibration = spaces
+        for p in problems:
+            p.recalibration = spaces
+    problem.set_base(start_values)
+    nominals = [p.simulate_full(start_values) for p in problems]
+    return problems, problem, start_values, nominals
 
 
 def _read_any(path, config):
