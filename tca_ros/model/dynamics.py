@@ -148,6 +148,8 @@ class TcaSimulator:
         self._contact = contact_elongation(params)
         self._linear_thermal = (params.effects.emissivity == 0.0
                                 and params.effects.convection_exponent == 0.0)
+        self._decay_step = None  # s, the substep self._decay (-) was computed for
+        self._decay = None
         self._substeps = 1
         self._steps_since_check = 0
         self._step_length = None  # s, length of the last substep (q_{i-1} is that far back)
@@ -448,8 +450,10 @@ class TcaSimulator:
             target = self._ambient + fx.heating_power(
                 power, self.params.effects, self.params.thermal.delivered_power_ratio) \
                 / self._conductance
-            return target + (temp - target) * math.exp(-h * self._conductance
-                                                       / self._heat_capacity)
+            if h != self._decay_step:  # exp(-h G / C) is kept while h is (G, C are fixed)
+                self._decay_step = h
+                self._decay = math.exp(-h * self._conductance / self._heat_capacity)
+            return target + (temp - target) * self._decay
         k1 = self._thermal_rate(temp, power)
         k2 = self._thermal_rate(temp + 0.5 * h * k1, power)
         k3 = self._thermal_rate(temp + 0.5 * h * k2, power)
