@@ -133,18 +133,28 @@ class ForceTable:
     def force_at(self, elongation, temperature):
         """Return F (N) at elongation y (m) and temperature T (degC): evaluate()[0].
 
-        The dynamics' hot path (each muscle, each step): hermite_cell and
+        The dynamics' hot path (each muscle, each step): _locate, hermite_cell and
         cubic_hermite written out, in their order of operations, so the value
         equals evaluate()[0] (test_rod_model pins it); the slope is formed only
-        where the row extrapolates.
+        where a row extrapolates.
         """
-        i, w, eta = self._locate(elongation, temperature)
+        t = (temperature - self.temp0) / self.temp_step
+        top = self.n_temp - 1.0
+        if not 0.0 <= t <= top:  # clamped below the first row, an error beyond the last
+            i, w, eta = self._locate(elongation, temperature)
+        else:
+            t = min(t, self.n_temp - 1.000001)
+            i = int(t)
+            w = t - i
+            free = self.free
+            eta = elongation - (free[i] + w * (free[i + 1] - free[i]))
         force, slope, n = self.force, self.slope, self.n_eta
-        values = []
+        last = n - 1
+        value = None
         for row in (i, i + 1):
             step = self.eta_step[row]
             x = (eta - self.eta0[row]) / step
-            if 0.0 <= x < n - 1:
+            if 0.0 <= x < last:
                 k = int(x)
                 u = x - k
                 j = row * n + k
@@ -152,13 +162,15 @@ class ForceTable:
                 d0, d1 = slope[j] * step, slope[j + 1] * step
                 u2 = u * u
                 u3 = u2 * u
-                values.append((2 * u3 - 3 * u2 + 1) * f0 + (u3 - 2 * u2 + u) * d0
-                              + (3 * u2 - 2 * u3) * f1 + (u3 - u2) * d1)
+                f = ((2 * u3 - 3 * u2 + 1) * f0 + (u3 - 2 * u2 + u) * d0
+                     + (3 * u2 - 2 * u3) * f1 + (u3 - u2) * d1)
             else:  # beyond the row: linear with the edge slope
                 k, u, extra = hermite_cell(eta, self.eta0[row], step, n)
-                values.append(cubic_hermite(force, slope, row * n + k, u, step, extra)[0])
-        f_a, f_b = values
-        return f_a + w * (f_b - f_a)
+                f = cubic_hermite(force, slope, row * n + k, u, step, extra)[0]
+            if value is None:
+                value = f
+            else:
+                return value + w * (f - value)
 
     def _locate(self, elongation, temperature):
         """Return (row i, weight w of row i + 1, eta (m)) of (y (m), T (degC))."""
