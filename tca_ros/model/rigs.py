@@ -201,7 +201,8 @@ class HeldMuscle(TcaSimulator):
     def hold(self, power, elongation, h):
         """Advance h (s) under power (W) with the end at elongation q (m); return state."""
         s = self.state
-        s.temperature = temp = self._thermal_step(s.temperature, self._delayed(power, h), h)
+        applied = self._delayed(power, h) if self._dead_time > 0.0 else power  # W
+        s.temperature = temp = self._thermal_step(s.temperature, applied, h)
         if self._fiber_lags:
             e = self.params.effects
             s.fiber_temperature = fx.second_lag_step(s.fiber_temperature, temp, h, e)
