@@ -135,25 +135,28 @@ class ForceTable:
 
         The dynamics' hot path (each muscle, each step): _locate, hermite_cell and
         cubic_hermite written out, in their order of operations, so the value
-        equals evaluate()[0] (test_rod_model pins it); the slope is formed only
-        where a row extrapolates.
+        equals evaluate()[0] (test_rig_fast_paths pins it); the slope is formed
+        only where a row extrapolates.
         """
         t = (temperature - self.temp0) / self.temp_step
         top = self.n_temp - 1.0
         if not 0.0 <= t <= top:  # clamped below the first row, an error beyond the last
             i, w, eta = self._locate(elongation, temperature)
         else:
-            t = min(t, self.n_temp - 1.000001)
+            cap = self.n_temp - 1.000001  # as min(t, cap)
+            if cap < t:
+                t = cap
             i = int(t)
             w = t - i
             free = self.free
             eta = elongation - (free[i] + w * (free[i + 1] - free[i]))
         force, slope, n = self.force, self.slope, self.n_eta
+        eta0, eta_step = self.eta0, self.eta_step
         last = n - 1
         value = None
         for row in (i, i + 1):
-            step = self.eta_step[row]
-            x = (eta - self.eta0[row]) / step
+            step = eta_step[row]
+            x = (eta - eta0[row]) / step
             if 0.0 <= x < last:
                 k = int(x)
                 u = x - k
@@ -166,7 +169,7 @@ class ForceTable:
                 f = ((2.0 * u3 - 3.0 * u2 + 1.0) * f0 + (u3 - 2.0 * u2 + u) * d0
                      + (3.0 * u2 - 2.0 * u3) * f1 + (u3 - u2) * d1)
             else:  # beyond the row: linear with the edge slope
-                k, u, extra = hermite_cell(eta, self.eta0[row], step, n)
+                k, u, extra = hermite_cell(eta, eta0[row], step, n)
                 f = cubic_hermite(force, slope, row * n + k, u, step, extra)[0]
             if value is None:
                 value = f
