@@ -148,6 +148,13 @@ class TcaSimulator:
         self._contact = contact_elongation(params)
         self._linear_thermal = (params.effects.emissivity == 0.0
                                 and params.effects.convection_exponent == 0.0)
+        self._decay_step = None  # s, the substep self._decay (-) was computed for
+        self._decay = None
+        # W heating the fiber per W logged (heating_power is linear in P)
+        self._heating_gain = fx.heating_power(1.0, params.effects,
+                                              params.thermal.delivered_power_ratio)
+        self._dead_time = params.effects.dead_time  # s
+        self._sensor_lag = params.effects.sensor_lag != 0.0
         self._substeps = 1
         self._steps_since_check = 0
         self._step_length = None  # s, length of the last substep (q_{i-1} is that far back)
@@ -399,7 +406,7 @@ class TcaSimulator:
         zero. Averaging over the delayed interval keeps the heat delivered and
         makes the result continuous in d (a fit can move d by less than a step).
         """
-        delay = self.params.effects.dead_time
+        delay = self._dead_time
         if delay <= 0.0:
             return power
         now = self.state.time
@@ -445,11 +452,11 @@ class TcaSimulator:
     def _thermal_step(self, temp, power, h):
         """Return T after h (s), power held constant: exact if linear, else RK4."""
         if self._linear_thermal:
-            target = self._ambient + fx.heating_power(
-                power, self.params.effects, self.params.thermal.delivered_power_ratio) \
-                / self._conductance
-            return target + (temp - target) * math.exp(-h * self._conductance
-                                                       / self._heat_capacity)
+            target = self._ambient + self._heating_gain * power / self._conductance
+            if h != self._decay_step:  # exp(-h G / C) is kept while h is (G, C are fixed)
+                self._decay_step = h
+                self._decay = math.exp(-h * self._conductance / self._heat_capacity)
+            return target + (temp - target) * self._decay
         k1 = self._thermal_rate(temp, power)
         k2 = self._thermal_rate(temp + 0.5 * h * k1, power)
         k3 = self._thermal_rate(temp + 0.5 * h * k2, power)
@@ -459,8 +466,11 @@ class TcaSimulator:
     def _update_outputs(self, s, h):
         p = self.params
         s.displacement = self.reference_elongation - s.elongation
-        s.measured_displacement = fx.lag_filter(s.measured_displacement, s.displacement, h,
-                                                p.effects)
+        if self._sensor_lag:
+            s.measured_displacement = fx.lag_filter(s.measured_displacement, s.displacement,
+                                                    h, p.effects)
+        else:  # lag_filter without the lag
+            s.measured_displacement = s.displacement
         s.resistance = resistance(s.temperature, s.displacement, self.loaded_length,
                                   p.electrical, p.thermal.ambient_temperature)
 

@@ -164,6 +164,13 @@ class HeldMuscle(TcaSimulator):
     Friction on the free end does not act (the end is clamped).
     """
 
+    def __init__(self, params, model=None, dt=1e-3, kinetostatics=None):
+        e = params.effects
+        # the fiber lags of T (degC) and the creep, each off at its default
+        self._fiber_lags = e.second_thermal_lag > 0.0 or e.hysteresis_width > 0.0
+        self._creeps = e.creep_compliance > 0.0
+        super().__init__(params, model=model, dt=dt, kinetostatics=kinetostatics)
+
     def stability_limit(self):
         """Return inf (s): the rig, not a free mass, moves the end."""
         return math.inf
@@ -193,26 +200,28 @@ class HeldMuscle(TcaSimulator):
 
     def hold(self, power, elongation, h):
         """Advance h (s) under power (W) with the end at elongation q (m); return state."""
-        p, s = self.params, self.state
-        s.temperature = self._thermal_step(s.temperature, self._delayed(power, h), h)
-        if p.effects.second_thermal_lag > 0.0 or p.effects.hysteresis_width > 0.0:
-            s.fiber_temperature = fx.second_lag_step(s.fiber_temperature, s.temperature, h,
-                                                     p.effects)
+        s = self.state
+        applied = self._delayed(power, h) if self._dead_time > 0.0 else power  # W
+        s.temperature = temp = self._thermal_step(s.temperature, applied, h)
+        if self._fiber_lags:
+            e = self.params.effects
+            s.fiber_temperature = fx.second_lag_step(s.fiber_temperature, temp, h, e)
             s.actuation_temperature = fx.play_operator(
-                s.fiber_temperature, s.actuation_temperature, p.effects.hysteresis_width)
-        else:  # both lags off (the common case): 1 us of the pair's ~15 us step
-            s.fiber_temperature = s.actuation_temperature = s.temperature
+                s.fiber_temperature, s.actuation_temperature, e.hysteresis_width)
+        else:  # both lags off (the common case)
+            s.fiber_temperature = s.actuation_temperature = temp
         y_c = s.creep
         s.previous_elongation = s.elongation
         s.velocity = (elongation - s.elongation) / h
         s.elongation = elongation
-        if p.effects.creep_compliance > 0.0:
-            s.creep = y_c + h * fx.creep_rate(y_c, s.tension, p.effects)
+        if self._creeps:
+            s.creep = y_c + h * fx.creep_rate(y_c, s.tension, self.params.effects)
         coil = elongation - s.creep
-        s.in_contact = coil <= self._contact
+        contact = self._contact
+        s.in_contact = coil <= contact
         s.time += h
         s.power = power
-        s.tension = self.kinetostatics.tension(max(coil, self._contact),
+        s.tension = self.kinetostatics.tension(contact if contact > coil else coil,
                                                s.actuation_temperature, s.tension)
         s.load = s.tension
         self._update_outputs(s, h)
@@ -347,7 +356,9 @@ class AntagonisticPair:
     def _substep(self, power_1, power_2, h):
         a, b = self.agonist, self.antagonist
         r = self.radius
-        force_1, force_2 = self.forces()
+        force_1, force_2 = a.state.tension, b.state.tension  # Eq. (R6), as forces()
+        force_1 = 0.0 if 0.0 > force_1 else force_1  # max(F, 0), NaN kept
+        force_2 = 0.0 if 0.0 > force_2 else force_2
         theta = self.angle
         nxt = central_difference_step(theta, self.previous_angle, r * (force_1 - force_2),
                                       self.inertia, self.damping, h)  # Eq. (R7)

@@ -73,7 +73,7 @@ class RodKinetostatics(KinetostaticModel):
         ``force_guess`` is accepted for interface compatibility and ignored: the
         table already satisfies the moduli fixed point of Eq. (11).
         """
-        return self._table.evaluate(elongation, temperature)[0]
+        return self._table.force_at(elongation, temperature)
 
     def stiffness(self, elongation, temperature):
         """Return d f_rod / d y (N/m) at elongation (m) and temperature (degC)."""

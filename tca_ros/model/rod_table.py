@@ -125,6 +125,59 @@ class ForceTable:
 
     def evaluate(self, elongation, temperature):
         """Return (F (N), dF/dy (N/m)) at elongation y (m) and temperature T (degC)."""
+        i, w, eta = self._locate(elongation, temperature)
+        f_a, k_a = self._row(i, eta)
+        f_b, k_b = self._row(i + 1, eta)
+        return f_a + w * (f_b - f_a), k_a + w * (k_b - k_a)
+
+    def force_at(self, elongation, temperature):
+        """Return F (N) at elongation y (m) and temperature T (degC): evaluate()[0].
+
+        The dynamics' hot path (each muscle, each step): _locate, hermite_cell and
+        cubic_hermite written out, in their order of operations, so the value
+        equals evaluate()[0] (test_rig_fast_paths pins it); the slope is formed
+        only where a row extrapolates.
+        """
+        t = (temperature - self.temp0) / self.temp_step
+        top = self.n_temp - 1.0
+        if not 0.0 <= t <= top:  # clamped below the first row, an error beyond the last
+            i, w, eta = self._locate(elongation, temperature)
+        else:
+            cap = self.n_temp - 1.000001  # as min(t, cap)
+            if cap < t:
+                t = cap
+            i = int(t)
+            w = t - i
+            free = self.free
+            eta = elongation - (free[i] + w * (free[i + 1] - free[i]))
+        force, slope, n = self.force, self.slope, self.n_eta
+        eta0, eta_step = self.eta0, self.eta_step
+        last = n - 1
+        value = None
+        for row in (i, i + 1):
+            step = eta_step[row]
+            x = (eta - eta0[row]) / step
+            if 0.0 <= x < last:
+                k = int(x)
+                u = x - k
+                j = row * n + k
+                f0, f1 = force[j], force[j + 1]
+                d0, d1 = slope[j] * step, slope[j + 1] * step
+                u2 = u * u
+                u3 = u2 * u
+                # float literals: CPython's fast float * float path, the same values
+                f = ((2.0 * u3 - 3.0 * u2 + 1.0) * f0 + (u3 - 2.0 * u2 + u) * d0
+                     + (3.0 * u2 - 2.0 * u3) * f1 + (u3 - u2) * d1)
+            else:  # beyond the row: linear with the edge slope
+                k, u, extra = hermite_cell(eta, eta0[row], step, n)
+                f = cubic_hermite(force, slope, row * n + k, u, step, extra)[0]
+            if value is None:
+                value = f
+            else:
+                return value + w * (f - value)
+
+    def _locate(self, elongation, temperature):
+        """Return (row i, weight w of row i + 1, eta (m)) of (y (m), T (degC))."""
         t = (temperature - self.temp0) / self.temp_step
         if not t <= self.n_temp - 1.0:  # also NaN
             why = ('where nylon 6,6 melts' if self.top >= TABLE_TEMP_MAX else
@@ -134,10 +187,7 @@ class ForceTable:
         t = min(max(t, 0.0), self.n_temp - 1.000001)
         i = int(t)
         w = t - i
-        eta = elongation - (self.free[i] + w * (self.free[i + 1] - self.free[i]))
-        f_a, k_a = self._row(i, eta)
-        f_b, k_b = self._row(i + 1, eta)
-        return f_a + w * (f_b - f_a), k_a + w * (k_b - k_a)
+        return i, w, elongation - (self.free[i] + w * (self.free[i + 1] - self.free[i]))
 
     def _row(self, i, eta):
         """Hermite value and slope of row i at eta (m), extrapolated past its ends."""
