@@ -188,3 +188,20 @@ def test_cli_calibrate_writes_a_params_file_the_simulator_accepts(tmp_path, caps
     # an existing --out is not overwritten without --force
     assert main(['calibrate', paths[0], '--config', str(start), '--out', str(out),
                  '--quiet']) == 2
+
+
+def test_the_damping_bound_is_ten_times_critical_or_ten_times_the_start():
+    # a 10 g weight on the free-stroke coil: k about 24 N/m, critical 2 sqrt(k m)
+    from tca_ros.diagnosis.calibration import damping_bound, MAX_DAMPING_RATIO
+    from tca_ros.model.dynamics import critical_damping
+    from tca_ros.model.params import GRAVITY, load_params
+    params = load_params('free_stroke').with_values(**{
+        'dynamics.mass': 0.01, 'dynamics.load': 0.01 * GRAVITY, 'dynamics.damping': 0.01})
+    bound = damping_bound(params, 'cst')
+    crit = bound / MAX_DAMPING_RATIO
+    stiffness = crit ** 2 / (4.0 * 0.01)
+    assert 15.0 < stiffness < 35.0  # N/m, the coil at ambient under 0.1 N
+    assert critical_damping(stiffness, 0.01) == pytest.approx(crit)
+    heavy = params.with_values(**{'dynamics.damping': 50.0})  # a muscle in water
+    assert damping_bound(heavy, 'cst') == pytest.approx(500.0)
+    assert critical_damping(-1.0, 0.01) == 0.0

@@ -36,7 +36,7 @@ import numpy as np
 
 from tca_ros.diagnosis import engine
 from tca_ros.diagnosis.fitting import Progress
-from tca_ros.model.dynamics import simulate
+from tca_ros.model.dynamics import critical_damping, simulate
 from tca_ros.model.kinetostatics import static_elongation
 from tca_ros.model.quasistatic import make_statics, QuasiStaticPlant
 from tca_ros.model.thermal import heat_capacity, surface_area, thermal_conductance
@@ -49,17 +49,44 @@ OPTIONAL_FIT = ('friction_force',)  # fitted when named in ``fit`` (a diagnosis 
 DISPLACEMENT_SCALE_FLOOR = 1e-6  # m, residual scale floor (a good encoder's resolution)
 MIN_PHYSICS_RATE_HZ = 200.0  # Hz, full-dynamics check
 NOMINAL_LEVELS = 2  # a power column with at most this many distinct values is nominal
+#: calibrated damping at most this many times the critical damping of the hanging mass
+#: (or 10x the start's, for a muscle known to be heavily damped): beyond it the fit
+#: uses b_t / k as a lag of seconds, a thermal-like lag that is not viscous
+#: (docs/calibration.md, "Damping")
+MAX_DAMPING_RATIO = 10.0
 
 
 class CalibrationError(ValueError):
     """The records and the start config cannot be calibrated (one-line reason)."""
 
 
-def _priors(params, nominal_power, has_resistance, r0_measured=None, supply='power'):
+def damping_bound(params, model=None):
+    """Return the largest damping b_t (N s/m) a calibration may fit.
+
+    MAX_DAMPING_RATIO times the critical damping of the hanging mass on the
+    coil's stiffness at ambient under the start's load, or ten times the
+    start's damping if that is larger; at least 1 N s/m.
+    """
+    statics = make_statics(params, model)
+    load, ambient = params.dynamics.load, params.thermal.ambient_temperature
+    step = max(1e-3 * abs(load), 1e-4)
+    try:
+        y0 = static_elongation(statics, max(load - step, 0.0), ambient)
+        y1 = static_elongation(statics, load + step, ambient)
+        stiffness = (load + step - max(load - step, 0.0)) / (y1 - y0) if y1 > y0 else 0.0
+    except (ValueError, ArithmeticError):
+        stiffness = 0.0
+    crit = critical_damping(stiffness, params.dynamics.mass)
+    return max(MAX_DAMPING_RATIO * crit, 10.0 * params.dynamics.damping, 1.0)
+
+
+def _priors(params, nominal_power, has_resistance, r0_measured=None, supply='power',
+            max_damping=1e3):
     """Return {name: engine.Parameter} around the start ``params``.
 
     The resistance law is fitted when the records carry resistance, and its
     coefficients also when a constant-voltage supply makes the power follow it.
+    ``max_damping`` (N s/m): the damping's upper bound (:func:`damping_bound`).
     """
     conductance = thermal_conductance(params.fiber, params.thermal)
     tau = heat_capacity(params.fiber) / conductance
@@ -73,8 +100,9 @@ def _priors(params, nominal_power, has_resistance, r0_measured=None, supply='pow
                          math.log(4.0), description='untwist gain on eq. (4)'),
         engine.Parameter('stiffness_scale', '-', 1.0, 0.05, 20.0, math.log(2.0),
                          description='E and G relative to the start config'),
-        engine.Parameter('damping', 'N s/m', max(params.dynamics.damping, 1e-3), 1e-3, 1e3,
-                         math.log(10.0), description='b_t of eq. (18)'),
+        engine.Parameter('damping', 'N s/m',
+                         min(max(params.dynamics.damping, 1e-3), max_damping), 1e-3,
+                         max_damping, math.log(10.0), description='b_t of eq. (18)'),
     ]
     if nominal_power:
         out.append(engine.Parameter(
@@ -300,7 +328,8 @@ def calibrate(records, params, model=None, fit=None, progress=False, max_nfev=40
     nominal = is_nominal_power(records)
     start, notes = prepare_start(params, records, model)
     r0 = start.electrical.resistance
-    priors = _priors(start, nominal, 'resistance' in channels, r0, supply)
+    priors = _priors(start, nominal, 'resistance' in channels, r0, supply,
+                     damping_bound(start, model))
     names = list(fit) if fit else list(DEFAULT_FIT)
     unknown = [n for n in names if n not in DEFAULT_FIT + OPTIONAL_FIT]
     if unknown:

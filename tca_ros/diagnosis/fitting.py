@@ -351,6 +351,11 @@ class FitProblem:
         """Return [coarse-grid rate (Hz)] per record."""
         return [self.sample_rate / self.k]
 
+    @property
+    def heldout_starts(self):
+        """Return [time (s) of the coarse held-out part's start since the record's zero]."""
+        return [float(self.coarse_time[min(self.split, self.m - 1)] - self.record.time[0])]
+
     # -- fitting --------------------------------------------------------------------
     def screen(self, candidate):
         """Return [(train cost, start values, cost per channel)], best first.

@@ -11,14 +11,15 @@ answered with a model of the noise fitted to the data:
 does not depend on the inputs; missing physics does. The residual is
 regressed on signals the inputs drive (the predicted displacement and its
 square and rate, the predicted temperature rise, the power through faster
-and slower first-order lags than the thermal one), with an offset and a
-linear drift as nuisance terms and an AR(p) noise model (p by BIC, its memory
+and slower first-order lags than the thermal one), with a sensor drift from
+the record's zero as nuisance term (an offset and a drift over the segment when
+its start is not given) and an AR(p) noise model (p by BIC, its memory
 capped at MAX_NOISE_TAU_S; feasible generalised least squares, Cochrane &
 Orcutt, JASA 44, 1949). The F-test of
 the input terms is Ljung's residual-input independence test (System
 Identification, 2nd ed., Sec. 16.6) in regression form. A residual is
 *structured* when the input terms are significant and what they predict is
-larger than the noise (what neither they nor the offset and drift describe:
+larger than the noise (what neither they nor the nuisance terms describe:
 it is not "within the noise") and than 0.5 % of the measured stroke or swing (a
 model error below that is no practical error of a simulator); or when the
 rest is itself larger than 5 % of the swing (no sensor is that noisy).
@@ -66,6 +67,37 @@ def block_means(values, step):
     values = np.asarray(values, dtype=float)
     n = values.size // step
     return values[:n * step].reshape(n, step).mean(axis=1) if n else values[:0]
+
+
+def nuisance_columns(size, block_rate, start=None):
+    """Return the nuisance regressors (size x 1 or 2) of one record's block means.
+
+    ``start`` (s): time of the segment's first sample since the record's zero (a
+    record reads zero at its start: an encoder is zeroed, a CSV is made
+    relative). Then a sensor offset is no noise and the one nuisance term is a
+    linear drift from that zero, (t - t_0) at the block centres scaled to unit
+    size. ``start`` None: an offset and a linear drift over the segment.
+    """
+    if start is None:
+        return np.column_stack([np.ones(size), np.linspace(-1.0, 1.0, size)])
+    t = float(start) + (np.arange(size) + 0.5) / block_rate
+    scale = float(t[-1]) if size and t[-1] > 0.0 else 1.0
+    return (t / scale)[:, None]
+
+
+def remove_nuisance(values, block_rate, start=None):
+    """Return ``values`` (block means) minus their least-squares nuisance part."""
+    values = np.asarray(values, dtype=float)
+    if values.size < 3:
+        return values - values.mean() if values.size and start is None else values
+    basis = nuisance_columns(values.size, block_rate, start)
+    coef, *_ = np.linalg.lstsq(basis, values, rcond=None)
+    return values - basis @ coef
+
+
+def _segment(seg):
+    """Return (residual, terms, sample rate, start or None) of a 3- or 4-tuple."""
+    return (*seg[:3], seg[3] if len(seg) > 3 else None)
 
 
 def first_order_lag(signal, sample_rate, tau):
@@ -176,38 +208,42 @@ def structure_test(segments, swing, rate_hz=STRUCTURE_RATE_HZ, floor_share=STRUC
     an offset (fatigue) or a slow settling (creep under a constant load) would
     otherwise hide the rest of it.
     Both are averaged over blocks to about ``rate_hz`` (white sensor noise
-    averages out, the structure stays). Nuisance terms: an offset and a linear
-    drift per record. The AR(p) noise model is fitted to the full regression's
+    averages out, the structure stays). Nuisance terms per record
+    (:func:`nuisance_columns`): a linear drift from the record's zero when the
+    segment's start (s since that zero) is given as a 4th element, else an
+    offset and a linear drift over the segment. The AR(p) noise model is
+    fitted to the full regression's
     residual and both regressions are prewhitened with it (each record on its
     own) before the F-test.
     """
     parts, blocked = [], []
-    native = np.concatenate([np.asarray(r, dtype=float) for r, _, _ in segments])
+    segments = [_segment(seg) for seg in segments]
+    native = np.concatenate([np.asarray(r, dtype=float) for r, _, _, _ in segments])
     native_ms = float(np.mean(native ** 2)) if native.size else 0.0
-    for residual, terms, sample_rate in segments:
+    for residual, terms, sample_rate, start in segments:
         step = max(1, int(round(sample_rate / rate_hz)))
         e = block_means(residual, step)
         blocked.append(e)
         if e.size < 6 or terms.shape[1] == 0:
             continue
         x = np.column_stack([block_means(c, step) for c in terms.T])
-        parts.append((e, x))
         block_rate = sample_rate / step
-    n = sum(e.size for e, _ in parts)
+        parts.append((e, x, nuisance_columns(e.size, block_rate, start)))
+    n = sum(e.size for e, _, _ in parts)
     if n < 12 or not parts:
         e = np.concatenate(blocked) if blocked else np.zeros(0)
         floor = max(floor_share * swing, noise_share * math.sqrt(native_ms))
         return StructureTest(1.0, 0.0, math.sqrt(native_ms), floor, 0, e.size, swing)
-    cols = min(x.shape[1] for _, x in parts)
-    es = [e for e, _ in parts]
-    xs = [x[:, :cols] for _, x in parts]
-    nuis = []
-    for i, e in enumerate(es):  # offset and drift of record i, zero elsewhere
-        block = np.zeros((e.size, 2 * len(es)))
-        block[:, 2 * i] = 1.0
-        block[:, 2 * i + 1] = np.linspace(-1.0, 1.0, e.size)
+    cols = min(x.shape[1] for _, x, _ in parts)
+    es = [e for e, _, _ in parts]
+    xs = [x[:, :cols] for _, x, _ in parts]
+    k = sum(u.shape[1] for _, _, u in parts)
+    nuis, at = [], 0
+    for e, _, u in parts:  # the nuisance terms of record i, zero elsewhere
+        block = np.zeros((e.size, k))
+        block[:, at:at + u.shape[1]] = u
+        at += u.shape[1]
         nuis.append(block)
-    k = 2 * len(es)
 
     def stacked(phi):
         ew = np.concatenate([prewhiten(e, phi) for e in es])
@@ -275,7 +311,7 @@ def ar_variance_gain(phi, terms=2000):
 def _within_block_ms(segments, rate_hz):
     """Return the mean square of the residuals about their block means (record rate)."""
     total, count = 0.0, 0
-    for residual, _, sample_rate in segments:
+    for residual, _, sample_rate, *_ in segments:
         step = max(1, int(round(sample_rate / rate_hz)))
         r = np.asarray(residual, dtype=float)
         n = r.size // step
@@ -302,8 +338,10 @@ def heldout_deviance_gain(pairs, rate_hz=STRUCTURE_RATE_HZ):
 
     ``pairs``: one list per channel of (base residual, candidate residual, sample
     rate in Hz), one per record (channel units). The noise model is the
-    verdict's (:func:`structure_test`): per record an offset and a linear drift
-    are noise and removed, the rest is block-averaged to about ``rate_hz`` and
+    verdict's (:func:`structure_test`): per record its nuisance terms (a
+    drift from the record's zero when a 4th element gives the start in s, else
+    an offset and a linear drift) are noise and removed, the rest is
+    block-averaged to about ``rate_hz`` and
     AR(p) (p by BIC, memory capped at MAX_NOISE_TAU_S) fitted to the
     candidate's residual; both residuals are prewhitened with it. Then
 
@@ -318,13 +356,14 @@ def heldout_deviance_gain(pairs, rate_hz=STRUCTURE_RATE_HZ):
     for channel in pairs:
         base, cand = [], []
         block_rate = rate_hz
-        for r0, r1, sample_rate in channel:
+        for r0, r1, sample_rate, *rest in channel:
             if r0 is None or r1 is None:
                 return -math.inf, count
+            start = rest[0] if rest else None
             step = max(1, int(round(sample_rate / rate_hz)))
             block_rate = sample_rate / step
-            base.append(detrended(block_means(r0, step)))
-            cand.append(detrended(block_means(r1, step)))
+            base.append(remove_nuisance(block_means(r0, step), block_rate, start))
+            cand.append(remove_nuisance(block_means(r1, step), block_rate, start))
         joined = np.concatenate(cand) if cand else np.zeros(0)
         if joined.size < 12 or not np.all(np.isfinite(joined)):
             return (-math.inf if joined.size and not np.all(np.isfinite(joined)) else 0.0,

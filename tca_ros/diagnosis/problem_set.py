@@ -87,6 +87,11 @@ class FitProblemSet(FitProblem):
         """Return [coarse-grid rate (Hz)] per record."""
         return [r for p in self.problems for r in p.coarse_rates]
 
+    @property
+    def heldout_starts(self):
+        """Return [time (s) of each held-out part's start since its record's zero]."""
+        return [t for p in self.problems for t in p.heldout_starts]
+
     def heldout(self, values):
         """Return (cost, {channel: RMSE}, n, mean lag-1 autocorrelation) over the records."""
         cost, n, rhos, sq, counts = 0.0, 0, [], {}, {}

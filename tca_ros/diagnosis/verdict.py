@@ -54,7 +54,8 @@ def channel_stats(problems, sims, params=None, whole=False):
             tau = thermal_time_constant(par.fiber, par.thermal)
             rise = sim.temperature[s:] - par.thermal.ambient_temperature
             terms = input_terms(predicted[s:], rise, r.power[s:], p.sample_rate, tau)
-            segments.append((measured[s:] - predicted[s:], terms, p.sample_rate))
+            segments.append((measured[s:] - predicted[s:], terms, p.sample_rate,
+                             float(r.time[s] - r.time[0])))
             swing = max(swing, float(np.percentile(measured, 99.0)
                                      - np.percentile(measured, 1.0)))
             measured_all.append(measured[s:])
@@ -131,8 +132,8 @@ def noise_model_gain(problem, base_residuals, values, added_params):
 
         D - k ln(n)
 
-    D from noise.heldout_deviance_gain (per record an offset and a drift are
-    noise, the rest AR(p) noise: the model the verdict judges residuals by),
+    D from noise.heldout_deviance_gain (per record a drift from the record's
+    zero is noise, the rest AR(p) noise: the model the verdict judges residuals by),
     n its sample count, k the added parameters. Positive: the candidate
     predicts the held-out part better than k parameters fitted to noise would.
     ``base_residuals`` is ``problem.heldout_residuals`` of the base.
@@ -140,8 +141,9 @@ def noise_model_gain(problem, base_residuals, values, added_params):
     cand = problem.heldout_residuals(values)
     if base_residuals is None or cand is None:
         return -math.inf
-    rates = problem.coarse_rates
-    pairs = [[(b[c], r[c], rate) for b, r, rate in zip(base_residuals, cand, rates)]
+    rates, starts = problem.coarse_rates, problem.heldout_starts
+    pairs = [[(b[c], r[c], rate, t0)
+              for b, r, rate, t0 in zip(base_residuals, cand, rates, starts)]
              for c in problem.channels]
     deviance, n = heldout_deviance_gain(pairs)
     if n < added_params + 2:

@@ -115,6 +115,15 @@ def rescaled_previous(q, q_prev, h_old, h_new, acceleration=0.0):
     return q - h_new * velocity + 0.5 * acceleration * h_new * h_new
 
 
+def critical_damping(stiffness, mass):
+    """Return the critical damping 2 sqrt(k m) (N s/m) of eq. (18) about an equilibrium.
+
+    ``stiffness`` k = d f_rod / d y (N/m) there, ``mass`` m (kg); b_t above it
+    gives no overshoot, b_t / k (s) is the mechanical lag behind the statics.
+    """
+    return 2.0 * math.sqrt(max(stiffness, 0.0) * max(mass, 0.0))
+
+
 def central_difference_limit(stiffness, mass):
     """Return the stability limit 2 / omega (s) of the central-difference step."""
     if mass <= 0.0 or stiffness <= 0.0:
