@@ -17,6 +17,8 @@ from tca_ros.diagnosis.realistic import bench_record, realistic_case, realistic_
 from tca_ros.model.dynamics import simulate
 from tca_ros.model.params import dump_params, GRAVITY
 
+from conftest import once_per_worker  # noqa: I100
+
 
 def _null_record(tmp_path, seed):
     s = realistic_set(seed, drift=0.0)
@@ -78,20 +80,45 @@ def test_realistic_null_record_names_nothing(tmp_path):
     assert result.verdict in ('adequate', 'unexplained'), result.explanation
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    'known limit (issue 9): friction of 0.039 N on a 0.19 N load is ranked first and '
-    'fitted at 0.040 N, radiation is added beside it, and 0.59 mm of input-predictable '
-    'structure remains (unexplained); three more joint polishes under a re-based defect '
-    'correction change nothing, so it is not the fit grid'))
-def test_realistic_hidden_friction_is_named(tmp_path):
-    # the plant's kinetostatics is the fit's here (cst)
-    options = dict(REALISTIC, plant='cst')
-    path, start = realistic_case(33, ['friction'], str(tmp_path), rate=5.0, **options)
-    result = diagnose(path, start, progress=False)
+@pytest.fixture(scope='module')
+def friction_case(tmp_path_factory):
+    """Return the DiagnosisResult of a realistic record with friction hidden in it.
+
+    The plant's kinetostatics is the fit's (cst) and the power column is what the
+    plant got: with the nominal command logged instead (REALISTIC's
+    nominal_power), the plant's +-3 % unlogged power variation leaves 652 um that
+    the inputs predict even for the true model and its true parameters (measured
+    on this seed), so no diagnosis could call that record explained.
+    """
+    def compute():
+        directory = str(tmp_path_factory.mktemp('friction'))
+        options = dict(REALISTIC, plant='cst', nominal_power=False)
+        path, start = realistic_case(33, ['friction'], directory, rate=5.0, **options)
+        return diagnose(path, start, progress=False)
+    return once_per_worker('test_diagnosis_real.friction_case', compute)
+
+
+def test_realistic_hidden_friction_is_found_first_at_its_magnitude(friction_case):
+    result = friction_case
     print(format_summary(result))
+    assert (result.effects or result.helpful) == ['friction'], result.explanation
+    assert result.rounds[0].scores[0].name == 'friction'
+    # drawn at 0.0388 N in the plant (realistic_case, seed 33)
+    assert result.extended_values['effects.friction_force'] == pytest.approx(0.0388, rel=0.1)
+    assert result.gain_percent > 80.0
+
+
+@pytest.mark.xfail(strict=True, reason=(
+    'known limit (issue 9): on this record friction is found first and fitted at about '
+    '0.037 N against 0.0388 N, held-out RMSE 1.88 mm -> 0.149 mm, but the fitted model leaves '
+    '122 um that the inputs predict (floor 107 um) while the true model leaves 12 um: the '
+    'calibration trades actuation gain against steady rise (gain 0.98 vs 1.14, rise x '
+    'power ratio 111 vs 90 K/W on one record without temperature), so the verdict says '
+    'unexplained with friction as helpful'))
+def test_realistic_hidden_friction_is_named(friction_case):
+    result = friction_case
     assert result.effects == ['friction'], result.explanation
     assert result.verdict == 'explained'
-    assert result.gain_percent > 20.0
 
 
 def test_realistic_fatigue_outside_the_catalogue_is_unexplained(tmp_path):

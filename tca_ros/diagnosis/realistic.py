@@ -134,13 +134,19 @@ def conditions(seed):
             'jitter': seed % 4 == 1, 'not_at_rest': seed % 4 == 3}
 
 
+def truth_path(directory, seed):
+    """Return the path of the truth params file realistic_case writes for ``seed``."""
+    return os.path.join(directory, f'truth_{seed}.yaml')
+
+
 def realistic_case(seed, hidden, directory, duration=240.0, **overrides):
     """Write one bench-like record and its muscle description; return (record, start) paths.
 
     The muscle is drawn by :func:`draw_muscle`; ``hidden`` lists catalogue effects
     (drawn at random magnitudes) and/or OUTSIDE defects; the record's conditions
     (:func:`conditions`) vary with ``seed`` unless ``overrides`` set them. The
-    description (start params, model cst) is what a maker would write.
+    description (start params, model cst) is what a maker would write; the
+    plant's params (truth, effects included) go to :func:`truth_path`.
     """
     rng = np.random.default_rng(seed)
     cond = {**conditions(seed), **overrides}
@@ -188,6 +194,9 @@ def realistic_case(seed, hidden, directory, duration=240.0, **overrides):
     temperature = (temperature + 0.2 * rng.standard_normal(n)) if cond['temperature'] else None
     start_path = os.path.join(directory, f'start_{seed}.yaml')
     dump_params(start.with_values(model='cst'), start_path)
+    # the plant's own parameters (effects included), for benchmarks that ask whether
+    # the truth itself passes the verdict's test on the logged record
+    dump_params(truth.with_values(model=cond['plant']), truth_path(directory, seed))
     record = Record(time=stamps, power=logged, load=load, displacement=x - x[0],
                     temperature=temperature,
                     meta={'tca': os.path.basename(start_path), 'mass_kg': round(mass, 6),
