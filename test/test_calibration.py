@@ -205,3 +205,17 @@ def test_the_damping_bound_is_ten_times_critical_or_ten_times_the_start():
     heavy = params.with_values(**{'dynamics.damping': 50.0})  # a muscle in water
     assert damping_bound(heavy, 'cst') == pytest.approx(500.0)
     assert critical_damping(-1.0, 0.01) == 0.0
+
+
+def test_cli_calibrate_refuses_a_conical_tca_in_one_line(tmp_path, capsys):
+    # the conical TCA simulates (issue 11) but its calibration would search on the
+    # quasi-static reduction, whose static maps are the helix's: refused, exit 2
+    s = realistic_set(8, drift=0.0)
+    path = tmp_path / 'rec.csv'
+    write_csv_record(s.records[0], str(path))
+    status = main(['calibrate', str(path), '--config', 'conical', '--out',
+                   str(tmp_path / 'cal.yaml'), '--quiet'])
+    err = capsys.readouterr().err.strip()
+    assert status == 2
+    assert len(err.splitlines()) == 1 and "coil.shape = 'conical'" in err
+    assert 'the conical TCA simulates but is not calibrated' in err

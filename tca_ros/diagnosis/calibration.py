@@ -323,7 +323,8 @@ def calibrate(records, params, model=None, fit=None, progress=False, max_nfev=40
     if params.coil.shape != 'helix':
         raise CalibrationError(
             f'coil.shape = {params.coil.shape!r}: calibration needs a helical TCA '
-            '(the conical TCA has statics only)')
+            '(its search runs on the quasi-static reduction, whose static maps are '
+            "the uniform helix's; the conical TCA simulates but is not calibrated)")
     channels = channels_of(records)
     nominal = is_nominal_power(records)
     start, notes = prepare_start(params, records, model)
