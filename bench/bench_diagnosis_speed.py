@@ -14,7 +14,9 @@ whether the verdict and named effects are identical to the saved ones and how
 far each fitted value moved in units of its standard error.
 
     python bench/bench_diagnosis_speed.py [--jobs 2] [--seeds 9000 9005 ...]
-                                          [--save F.json] [--compare F.json]
+                                          [--model rod] [--save F.json] [--compare F.json]
+
+``--model rod`` fits with the rod model instead of the descriptions' cst.
 
 Printed figures, not assertions.
 """
@@ -59,11 +61,11 @@ def _stderrs(result):
 
 def run_one(args):
     """Diagnose one case in this process; return a JSON-ready row with its CPU time."""
-    seed, hidden = args
+    seed, hidden, model = args
     with tempfile.TemporaryDirectory() as directory:
         path, start = realistic_case(seed, hidden, directory)
         t0, w0 = time.process_time(), time.perf_counter()
-        result = diagnose(path, start, progress=False)
+        result = diagnose(path, start, progress=False, model=model)
         cpu, wall = time.process_time() - t0, time.perf_counter() - w0
     stderr = _stderrs(result)
     values = {k: float(v) for k, v in result.extended_values.items()}
@@ -99,10 +101,14 @@ def main(argv=None):
     parser.add_argument('--seeds', type=int, nargs='*')
     parser.add_argument('--save')
     parser.add_argument('--compare')
+    parser.add_argument('--model', choices=('rod', 'cst', 'love'),
+                        help="fit with this kinetostatic model (default the description's: "
+                             'cst)')
     args = parser.parse_args(argv)
     todo = default_cases()
     if args.seeds:
         todo = [(s, h) for s, h in todo if s in args.seeds]
+    todo = [(s, h, args.model) for s, h in todo]
     with multiprocessing.Pool(args.jobs) as pool:
         rows = pool.map(run_one, todo, chunksize=1)
     old = {}
