@@ -220,8 +220,11 @@ def _group(path):
     return next((g for g in GROUP_LENGTHS if f'_{g}_' in os.path.basename(path)), '')
 
 
-def _diagnose_real(args):
-    """Diagnose one real record (or a list of one muscle's); return a dict row."""
+def _diagnose_real(args, keep=False):
+    """Diagnose one real record (or a list of one muscle's); return a dict row.
+
+    ``keep``: return (row, DiagnosisResult) instead.
+    """
     from bench_real import SALP_MUSCLE
     from tca_ros.model.muscle import describe_muscle
     paths, length, work = args
@@ -233,16 +236,18 @@ def _diagnose_real(args):
     try:
         r = diagnose(paths if len(paths) > 1 else paths[0], start_path, progress=False)
     except Exception as exc:  # a failure is a row of the table
-        return {'name': os.path.basename(paths[0]), 'verdict': f'error: {exc}'.splitlines()[0],
-                'cpu': time.process_time() - t0}
+        row = {'name': os.path.basename(paths[0]), 'verdict': f'error: {exc}'.splitlines()[0],
+               'cpu': time.process_time() - t0}
+        return (row, None) if keep else row
     own = {k.split('.', 1)[1]: v for k, v in r.extended_values.items()
            if k.startswith('effects.') or k.startswith('coil.')}
     more = f' +{len(paths) - 1}' if len(paths) > 1 else ''
-    return {'name': os.path.basename(paths[0]) + more,
-            'verdict': r.verdict, 'effects': r.effects, 'helpful': r.helpful,
-            'nominal': r.nominal_rmse['displacement'], 'extended':
-            r.extended_rmse['displacement'], 'gain': r.channel_gain('displacement'),
-            'values': own, 'cpu': time.process_time() - t0}
+    row = {'name': os.path.basename(paths[0]) + more,
+           'verdict': r.verdict, 'effects': r.effects, 'helpful': r.helpful,
+           'nominal': r.nominal_rmse['displacement'], 'extended':
+           r.extended_rmse['displacement'], 'gain': r.channel_gain('displacement'),
+           'values': own, 'cpu': time.process_time() - t0}
+    return (row, r) if keep else row
 
 
 def real_records(directory, jobs=2):

@@ -1,7 +1,7 @@
 """Diagnose a record: nominal residuals, candidate ranking, extended model, gain.
 
 ``diagnose`` is what ``tca_sim diagnose DATA --config ... [--report DIR]`` runs;
-``format_summary`` is its one-screen stdout summary.
+``summary.format_summary`` is its one-screen stdout summary.
 """
 from dataclasses import dataclass, field
 import math
@@ -11,7 +11,7 @@ import time as wallclock
 import numpy as np
 
 from tca_ros.diagnosis.candidates import ABSORBED, absorbed_candidates, build_candidates, \
-    RECALIBRATION, recalibration_spaces
+    recalibration_spaces
 from tca_ros.diagnosis.data import read_record, record_config
 from tca_ros.diagnosis.fitting import FitProblem, Progress
 from tca_ros.diagnosis.record_ops import decimated, leading_part
@@ -344,87 +344,3 @@ def _calibrate_training_part(records, params_of, model, fraction, supply, progre
     note = ('nominal parameters calibrated on the training part: '
             + (', '.join(fitted) if fitted else 'none determined'))
     return cal, calibrated, note
-
-
-def _format_value(name, value):
-    unit = {'effects.creep_compliance': ('mm/N', 1e3), 'effects.extra_softening':
-            ('MPa/K', 1e-6)}.get(name)
-    short = name.split('.', 1)[1]
-    if unit:
-        return f'{short}={value * unit[1]:.3g} {unit[0]}'
-    from tca_ros.model.params import SPECS
-    return f'{short}={value:.3g} {SPECS[name].unit}'.rstrip(' -')
-
-
-def _format_rmse(channel, value):
-    return f'{value * 1e6:7.1f} um' if channel == 'displacement' else f'{value:7.2f} K '
-
-
-def format_summary(result):
-    """Return the one-screen stdout summary of a DiagnosisResult."""
-    r = result.record
-    channels = list(result.nominal_rmse)
-    lines = [
-        f'diagnose {r.source}: {r.duration:.1f} s at {r.sample_rate:.4g} Hz '
-        f'({r.time.size} samples; measured: {", ".join(channels)})',
-        *([f'  with {len(result.records) - 1} more record(s) of the same muscle: '
-           + ', '.join(os.path.basename(p) for p in result.records[1:])]
-          if len(result.records) > 1 else []),
-        f'config {result.config} (mass {r.mass * 1e3:.1f} g), model {result.model}; '
-        f'train 0-{result.split_time:.0f} s, held out {result.split_time:.0f}-'
-        f'{r.time[-1]:.0f} s',
-        'sensor noise (2nd differences): ' + ', '.join(
-            f'{c} {_format_rmse(c, s).strip()}' for c, s in result.sigma.items()),
-        '',
-        'candidates, each alone vs nominal (held-out RMSE; gain; penalised test):',
-    ]
-    base = result.rounds[0].base_rmse if result.rounds else result.nominal_rmse
-    for i, s in enumerate(result.candidates, start=1):
-        params = ', '.join(_format_value(k, v) for k, v in s.fit.params.items())
-        temp = (f'{_format_rmse("temperature", s.heldout_rmse["temperature"])}'
-                if 'temperature' in s.heldout_rmse else '')
-        mark = 'significant' if s.significant else ('' if s.refined else 'screened')
-        disp = s.heldout_rmse['displacement']
-        lines.append(f'  {i}. {s.name:<20s} {_format_rmse("displacement", disp)}'
-                     f' {gain(base["displacement"], disp):+7.1f} % {temp} {mark:<11s} {params}')
-    if result.rounds and result.rounds[0].restarted:
-        lines.append(f'  the greedy path from the best single candidate ended with structure '
-                     f'left; restarted from the runner-up {result.rounds[0].accepted}, whose '
-                     'path has the lower held-out BIC')
-    if result.untestable:
-        lines.append(f'  not testable in this record: {", ".join(result.untestable)} '
-                     '(coil contact: no allowed stop lies within the nominal stroke)')
-    for rnd in result.rounds[1:]:
-        best = rnd.scores[0] if rnd.scores else None
-        if best:
-            lines.append(f'  round {len(rnd.base_effects) + 1} (base + '
-                         f'{" + ".join(rnd.base_effects)}): best {best.name}, held-out score '
-                         f'{rnd.base_score:.2f} -> {best.heldout_score:.2f} sigma, '
-                         f'{"added" if rnd.accepted else "not significant"}')
-    lines.append('')
-    own = {k: v for k, v in result.extended_values.items() if k not in RECALIBRATION}
-    if result.effects:
-        lines.append('effects found: ' + ', '.join(result.effects))
-        lines.append('  ' + '; '.join(_format_value(k, v) for k, v in own.items()))
-    else:
-        lines.append('effects found: none')
-    refit = {k: v for k, v in result.extended_values.items() if k in RECALIBRATION}
-    if refit and (result.effects or result.helpful):
-        lines.append('  nominal parameters refitted with them: '
-                     + '; '.join(_format_value(k, v) for k, v in refit.items()))
-    if result.helpful:
-        lines.append('improve the fit but leave structure (not a cause): '
-                     + ', '.join(result.helpful))
-    for note in result.notes:
-        lines.append(f'note: {note}')
-    for c in channels:
-        before = _format_rmse(c, result.nominal_rmse[c]).strip()
-        after = _format_rmse(c, result.extended_rmse[c]).strip()
-        lines.append(f'held-out RMSE {c}: nominal {before} -> extended {after} '
-                     f'(gain {result.channel_gain(c):.1f} %)')
-    lines.append(f'verdict: {result.verdict}: {result.explanation}')
-    if result.report_path:
-        lines.append(f'report: {result.report_path}; extended params: '
-                     f'{result.extended_params_path}; {result.json_path}')
-    lines.append(f'{result.n_simulations} simulations, {result.elapsed:.1f} s')
-    return '\n'.join(lines)
