@@ -1,10 +1,10 @@
-"""Benchmark the quasi-static reduction against dynamics.simulate on a fit-sized record.
+"""Benchmark the quasi-static reduction against simulation.simulate on a fit-sized record.
 
 Prints, for the cst and rod models, the wall time of one call on a 240 s record at
 10 Hz (the diagnosis's fit grid) for the nominal model, each effect the reduction
 gained in quasistatic_effects.py and all four together: the reduction (static maps
 cached, the effect's parameter moved at every call as a fit moves it) beside
-dynamics.simulate with its physics at the record's rate, as the coarse fits call
+simulation.simulate with its physics at the record's rate, as the coarse fits call
 it. Figures, not assertions: run ``python bench/bench_quasistatic.py``.
 """
 import argparse
@@ -12,9 +12,9 @@ import time
 
 import numpy as np
 
-from tca_ros.model.dynamics import simulate
 from tca_ros.model.params import GRAVITY, load_params
 from tca_ros.model.quasistatic import simulate_quasistatic
+from tca_ros.model.simulation import simulate
 
 DURATION = 240.0  # s, the record
 RATE = 10.0  # Hz, the diagnosis's fit grid (fitting.FIT_RATE_HZ)
@@ -71,7 +71,7 @@ def main(argv=None):
     parser.add_argument('--calls', type=int, default=7,
                         help='reduction calls timed per row (median)')
     parser.add_argument('--dynamics-calls', type=int, default=3,
-                        help='dynamics.simulate calls timed per row (median)')
+                        help='simulation.simulate calls timed per row (median)')
     args = parser.parse_args(argv)
     t, power, load = record()
     print(f'free-stroke TCA, {MASS * 1e3:.0f} g; record {DURATION:.0f} s at {RATE:g} Hz '

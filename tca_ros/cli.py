@@ -171,8 +171,8 @@ def check_finite(columns, where, unit):
 
 def cmd_statics(args, out):
     """Print CSV temperature,displacement (degC, m) for a hanging mass."""
-    from tca_ros.model.dynamics import static_displacement
     from tca_ros.model.reference_state import crept_under
+    from tca_ros.model.simulation import static_displacement
     if args.tstep <= 0.0 or args.tmax < args.tmin:
         raise InputError(f'--tstep = {args.tstep:g}, --tmin = {args.tmin:g}, --tmax = '
                          f'{args.tmax:g}: need tstep > 0 and tmax >= tmin (degC)')

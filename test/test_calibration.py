@@ -19,9 +19,9 @@ from tca_ros.diagnosis.calibration import apply_calibration, calibrate
 from tca_ros.diagnosis.data import write_csv_record
 from tca_ros.diagnosis.lumped import fit_lumped, lumped_response
 from tca_ros.diagnosis.realistic import bench_record, realistic_set
-from tca_ros.model.dynamics import simulate
 from tca_ros.model.muscle import describe_muscle, MuscleSpec
 from tca_ros.model.params import dump_params, GRAVITY, load_params
+from tca_ros.model.simulation import simulate
 from tca_ros.model.thermal import heat_capacity, thermal_conductance
 
 from conftest import once_per_worker  # noqa: I100

@@ -13,9 +13,9 @@ import pytest
 
 from tca_ros.cli import main
 from tca_ros.model.conical import conical_end_height, HANGING, hanging_statics
-from tca_ros.model.dynamics import simulate
 from tca_ros.model.kinetostatic_models import make_kinetostatic_model
 from tca_ros.model.params import load_params
+from tca_ros.model.simulation import simulate
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 SCRIPT = ROOT / 'bench' / 'plot_conical.py'

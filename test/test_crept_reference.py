@@ -12,11 +12,11 @@ import numpy as np
 import pytest
 
 from tca_ros.cli import main
-from tca_ros.model.dynamics import static_displacement
 from tca_ros.model.kinetostatic_models import make_kinetostatic_model
 from tca_ros.model.kinetostatics import contact_elongation
 from tca_ros.model.params import dump_params, GRAVITY, ParameterError, to_flat_dict
 from tca_ros.model.reference_state import crept_pitch_angle, crept_under
+from tca_ros.model.simulation import static_displacement
 
 #: The authors' TCA_geo.m: rest pitch angle (deg) looked up by hanging mass (kg).
 AUTHORS_TABLE = {0.0: 15.0, 0.002: 16.0, 0.030: 20.0, 0.060: 22.0}

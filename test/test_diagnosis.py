@@ -16,9 +16,9 @@ import pytest
 from tca_ros.diagnosis import DataError, diagnose, format_summary
 from tca_ros.diagnosis.data import write_csv_record
 from tca_ros.diagnosis.generator import make_synthetic_record
-from tca_ros.model.dynamics import simulate
 from tca_ros.model.effects import CATALOGUE
 from tca_ros.model.params import load_params
+from tca_ros.model.simulation import simulate
 
 DURATION_S = 150.0  # long enough for creep retardation times up to 60 s
 RATE_HZ = 20.0

@@ -14,8 +14,8 @@ import pytest
 from tca_ros.diagnosis import diagnose, format_summary
 from tca_ros.diagnosis.data import write_csv_record
 from tca_ros.diagnosis.realistic import bench_record, realistic_case, realistic_set
-from tca_ros.model.dynamics import simulate
 from tca_ros.model.params import dump_params, GRAVITY
+from tca_ros.model.simulation import simulate
 
 from conftest import once_per_worker  # noqa: I100
 

@@ -15,8 +15,9 @@ import pytest
 from tca_ros.diagnosis.candidates import build_candidates
 from tca_ros.diagnosis.fitting import FitProblem, STOP
 from tca_ros.diagnosis.generator import make_synthetic_record
-from tca_ros.model.dynamics import simulate, TcaSimulator
+from tca_ros.model.dynamics import TcaSimulator
 from tca_ros.model.params import load_params
+from tca_ros.model.simulation import simulate
 
 
 @pytest.fixture(scope='module')

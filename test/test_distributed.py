@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from tca_ros.model.dynamics import static_displacement
+from tca_ros.model.simulation import static_displacement
 from tca_ros.toolkit import distributed
 from tca_ros.toolkit.batch import simulate_batch
 

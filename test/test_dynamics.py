@@ -6,8 +6,9 @@ import pytest
 
 from tca_ros.model import thermal
 from tca_ros.model.dynamics import (central_difference_limit, central_difference_step,
-                                    simulate, StabilityError, TcaSimulator)
+                                    StabilityError, TcaSimulator)
 from tca_ros.model.kinetostatics import contact_elongation
+from tca_ros.model.simulation import simulate
 
 
 def _oscillator_error(dt, m=0.03, b=0.5, k=22.5, force=0.3, t_end=0.5):

@@ -4,7 +4,7 @@ from gymnasium.utils.env_checker import check_env
 import numpy as np
 import pytest
 
-from tca_ros.model.dynamics import simulate
+from tca_ros.model.simulation import simulate
 from tca_ros.toolkit import envs
 
 
@@ -55,7 +55,7 @@ def test_same_seed_same_episode_other_seed_other_reference():
 
 
 def test_steps_the_same_simulator_as_dynamics_simulate(free_stroke):
-    """Held power on the env = the same profile through dynamics.simulate (cst)."""
+    """Held power on the env = the same profile through simulation.simulate (cst)."""
     env = gym.make(envs.ENV_ID, config=free_stroke, model='cst',
                    observe=('displacement', 'temperature'), episode_seconds=5.0)
     rows, _, truncated = run(env, 0, 1.0, 250)

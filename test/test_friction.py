@@ -5,9 +5,10 @@ import numpy as np
 import pytest
 
 from tca_ros.model import effects as fx
-from tca_ros.model.dynamics import simulate, TcaSimulator
+from tca_ros.model.dynamics import TcaSimulator
 from tca_ros.model.params import EffectParams, load_params
 from tca_ros.model.quasistatic import simulate_quasistatic
+from tca_ros.model.simulation import simulate
 
 MASS = 0.01  # kg, the 10 g weight of the recorded rigs
 LOAD = MASS * 9.81  # N

@@ -5,9 +5,9 @@ import numpy as np
 import pytest
 
 from tca_ros.model import kinetostatics as ks
-from tca_ros.model.dynamics import static_displacement
 from tca_ros.model.kinetostatic_models import centreline, make_kinetostatic_model
 from tca_ros.model.moduli import section_stiffness
+from tca_ros.model.simulation import static_displacement
 
 G = 9.81
 

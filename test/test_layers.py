@@ -5,6 +5,7 @@ import sys
 CHECK = """
 import sys
 import tca_ros.model.dynamics, tca_ros.model.kinetostatics, tca_ros.model.effects
+import tca_ros.model.simulation
 try:
     import tca_ros.rod
 except ImportError:

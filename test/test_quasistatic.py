@@ -2,10 +2,10 @@
 import numpy as np
 import pytest
 
-from tca_ros.model.dynamics import simulate
 from tca_ros.model.params import load_params
 from tca_ros.model.quasistatic import (
     delayed_input, first_order_response, QuasiStaticUnsupported, simulate_quasistatic)
+from tca_ros.model.simulation import simulate
 
 
 def _step_profile(rate, power=1.0):

@@ -36,9 +36,10 @@ import numpy as np
 
 from tca_ros.diagnosis import engine
 from tca_ros.diagnosis.fitting import Progress
-from tca_ros.model.dynamics import critical_damping, simulate
+from tca_ros.model.dynamics import critical_damping
 from tca_ros.model.kinetostatics import static_elongation
 from tca_ros.model.quasistatic import make_statics, QuasiStaticPlant
+from tca_ros.model.simulation import simulate
 from tca_ros.model.thermal import heat_capacity, surface_area, thermal_conductance
 
 DEFAULT_FIT = ('thermal_time_constant', 'steady_rise', 'actuation_gain', 'stiffness_scale',

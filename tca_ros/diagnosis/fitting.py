@@ -28,9 +28,9 @@ from scipy.optimize import least_squares
 
 from tca_ros.diagnosis.noise import quantisation_sigma
 from tca_ros.diagnosis.residuals import lag_one_autocorrelation, noise_sigma
-from tca_ros.model.dynamics import simulate
 from tca_ros.model.params import SPECS
 from tca_ros.model.quasistatic import QuasiStaticUnsupported, simulate_quasistatic
+from tca_ros.model.simulation import simulate
 
 FAILED_RESIDUAL = 1e3  # noise units per sample returned when a simulation fails
 DISPLACEMENT_NOISE_FLOOR = 1e-7  # m, noise floor for noise-free data

@@ -14,12 +14,12 @@ import numpy as np
 
 from tca_ros.diagnosis.data import Record
 from tca_ros.diagnosis.fitting import TRAIN_FRACTION
-from tca_ros.model.dynamics import simulate
 from tca_ros.model.effects import CATALOGUE, true_ambient
 from tca_ros.model.kinetostatic_models import make_kinetostatic_model
 from tca_ros.model.kinetostatics import loaded_length
 from tca_ros.model.kinetostatics import pitch_angle_of_length
 from tca_ros.model.params import GRAVITY, load_params
+from tca_ros.model.simulation import simulate
 
 #: Physical magnitude ranges the generator draws from: dotted name -> (low, high, log).
 #: Sources: creep of loaded nylon coils of 1-5 % of the loaded length over minutes

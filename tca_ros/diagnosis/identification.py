@@ -123,7 +123,7 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
     Parameters
     ----------
     data_path : str or list of str
-        CSV (``# key: value`` header) or rosbag2 recording (see data.py); a list
+        CSV (``# key: value`` header) or rosbag2 recording (see data.py, data_bag.py); a list
         diagnoses several records of one muscle together (one calibration on
         their training parts, shared effect parameters, pooled held-out scores).
     config : str, optional

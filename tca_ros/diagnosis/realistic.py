@@ -18,9 +18,9 @@ import numpy as np
 from tca_ros.diagnosis.calibration import apply_calibration, record_params
 from tca_ros.diagnosis.data import Record, write_csv_record
 from tca_ros.diagnosis.generator import draw_effect_values, random_power_profile
-from tca_ros.model.dynamics import simulate
 from tca_ros.model.effects import CATALOGUE
 from tca_ros.model.params import dump_params, GRAVITY, load_params
+from tca_ros.model.simulation import simulate
 from tca_ros.model.thermal import heat_capacity, thermal_conductance
 
 #: defects outside the catalogue: a sensor scale nonlinearity; an actuation gain that

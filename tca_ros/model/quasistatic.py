@@ -13,7 +13,7 @@ grid and interpolated; the thermal response is a linear recursive filter. One
 simulation of a record then costs a few dozen equilibrium solves instead of one
 f_rod evaluation per physics step, which is what makes the joint calibration of
 many records fast. ``simulate_quasistatic`` returns the same SimulationResult as
-``dynamics.simulate``; the test suite measures the difference between the two.
+``simulation.simulate``; the test suite measures the difference between the two.
 
 Every effect of the catalogue (effects.py) is represented: modulus softening and
 coil contact in the static maps; the linear thermal ones (power loss, ambient
@@ -36,11 +36,11 @@ from scipy.signal import lfilter
 
 from tca_ros.model import effects as fx
 from tca_ros.model import quasistatic_effects as qe
-from tca_ros.model.dynamics import SimulationResult
 from tca_ros.model.kinetostatic_models import make_kinetostatic_model
 from tca_ros.model.kinetostatics import contact_elongation
 from tca_ros.model.resistance import resistance
 from tca_ros.model.rod_model import helix_elongation, mechanical_params
+from tca_ros.model.simulation import SimulationResult
 from tca_ros.model.thermal import heat_capacity, thermal_conductance
 
 MAP_TEMP_STEP = 2.0  # K between the static map's grid points (linear interpolation)
@@ -55,7 +55,7 @@ VOLTAGE_POWER_MARGIN = 2.0  # bound on P R0 / R over P (RK4 substeps of a voltag
 
 
 class QuasiStaticUnsupported(ValueError):
-    """The reduction cannot represent this TCA or input: use dynamics.simulate."""
+    """The reduction cannot represent this TCA or input: use simulation.simulate."""
 
 
 def thermal_response(time, power, params):
@@ -331,7 +331,7 @@ class QuasiStaticPlant:
         if distinct.size > MAX_DISTINCT_LOADS and supply == 'voltage':
             raise QuasiStaticUnsupported(
                 f'load takes {distinct.size} distinct values; the quasi-static reduction '
-                f'solves at most {MAX_DISTINCT_LOADS}: use dynamics.simulate')
+                f'solves at most {MAX_DISTINCT_LOADS}: use simulation.simulate')
         e = params.effects
         if supply == 'voltage':
             temperature, fiber = self._voltage_drive(time, power, acting,
@@ -543,7 +543,7 @@ def simulate_quasistatic(params, time, power, load=None, model=None, kinetostati
                          supply='power'):
     """Quasi-static simulation of a power (W) and load (N) profile at ``time`` (s).
 
-    Same inputs and SimulationResult as ``dynamics.simulate`` (``substeps`` 0).
+    Same inputs and SimulationResult as ``simulation.simulate`` (``substeps`` 0).
     The displacement reference is the loaded equilibrium at ambient under
     ``load[0]``; ``supply`` as in QuasiStaticPlant.simulate.
     """

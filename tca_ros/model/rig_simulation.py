@@ -1,6 +1,6 @@
 """Sampled simulation of a TCA on its rig (params.rig.mode; tca_ros.model.rigs).
 
-``simulate_rig`` is ``dynamics.simulate`` for every load mode: inputs held between
+``simulate_rig`` is ``simulation.simulate`` for every load mode: inputs held between
 samples (zero-order hold), physics at ``physics_rate``, outputs sampled into the
 columns of RIG_COLUMNS (units: time s, power and power_2 W, load N, displacement
 m, temperature degC, resistance ohm, force N, angle rad, angular_velocity rad/s,
@@ -10,9 +10,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from tca_ros.model.dynamics import simulate
 from tca_ros.model.rigs import ANTAGONISTIC, DEAD_WEIGHT, ISOMETRIC, make_rig, SPRING
 from tca_ros.model.rigs import start_load
+from tca_ros.model.simulation import simulate
 
 #: Output columns of simulate_rig per rig (units: docs/rigs.md).
 RIG_COLUMNS = {

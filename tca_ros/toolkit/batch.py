@@ -273,7 +273,7 @@ def simulate_batch(params, time, power, load=None, model='cst', physics_rate=100
     """Simulate N muscles over ``time`` (s); return dict of (N, n_samples) arrays.
 
     ``power`` (W) and ``load`` (N) are (n_samples,) or (N, n_samples), held over
-    each interval (zero-order hold) as in dynamics.simulate; physics at
+    each interval (zero-order hold) as in simulation.simulate; physics at
     ``physics_rate`` (Hz) on a uniform ``time`` grid. Keys: displacement (m, as
     the sensor reads it), temperature (degC), resistance (ohm), tension (N).
     """

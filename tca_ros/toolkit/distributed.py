@@ -110,9 +110,9 @@ class ExactHelix:
 def statics_job(job):
     """Return the static contraction (m) of one design: job = (params, load, temps, model).
 
-    Same as dynamics.static_displacement; the rod model through ExactHelix.
+    Same as simulation.static_displacement; the rod model through ExactHelix.
     """
-    from tca_ros.model.dynamics import static_displacement
+    from tca_ros.model.simulation import static_displacement
     params, load, temperatures, model = job
     km = ExactHelix(params) if (model or params.model) == 'rod' else None
     return static_displacement(params, load, temperatures, model=model, kinetostatics=km)

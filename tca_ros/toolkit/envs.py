@@ -26,9 +26,10 @@ import gymnasium as gym
 from gymnasium import spaces
 import numpy as np
 
-from tca_ros.model.dynamics import static_displacement, TcaSimulator
+from tca_ros.model.dynamics import TcaSimulator
 from tca_ros.model.params import load_params, TcaParams
 from tca_ros.model.resistance import power_from_voltage
+from tca_ros.model.simulation import static_displacement
 
 ENV_ID = 'TcaTracking-v0'
 OBSERVABLES = ('displacement', 'velocity', 'temperature', 'resistance')

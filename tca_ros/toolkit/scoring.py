@@ -11,7 +11,8 @@ with a fresh controller. Deterministic: same controller, same scores.
 """
 import numpy as np
 
-from tca_ros.model.dynamics import static_displacement, TcaSimulator
+from tca_ros.model.dynamics import TcaSimulator
+from tca_ros.model.simulation import static_displacement
 from tca_ros.toolkit.tasks import OVERHEAT_MARGIN, REFERENCE_TEMPERATURE, score
 
 MAX_TEMPERATURE = 180.0  # degC, the node's default overheat limit
