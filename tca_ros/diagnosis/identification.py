@@ -17,7 +17,7 @@ from tca_ros.diagnosis.fitting import FitProblem, Progress
 from tca_ros.diagnosis.record_ops import decimated, leading_part
 from tca_ros.diagnosis.search import search_effects
 from tca_ros.diagnosis.verdict import channel_stats, decide_verdict, gain, \
-    needs_explaining, NOTHING_TO_EXPLAIN, pooled_heldout_rmse
+    heldout_gain_over, needs_explaining, NOTHING_TO_EXPLAIN, pooled_heldout_rmse
 
 VERDICTS = ('explained', 'adequate', 'unexplained')
 #: Rough count of simulations of a diagnosis, for the progress bar.
@@ -231,6 +231,15 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
             notes.append(NOTHING_TO_EXPLAIN)
         values = values if effects else dict(start_values)  # not the round-one polish
         extendeds = [p.simulate_full(values) for p in problems] if effects else nominals
+        added = len([k for k in values if k not in start_values])
+        if effects and heldout_gain_over(problems, nominals, extendeds, added) <= 0.0:
+            # each effect was accepted against the round's base (the nominal with its
+            # calibration refitted); the whole extension must beat the calibrated
+            # nominal itself, or it is no improvement to report
+            notes.append(f'{" + ".join(effects)} fitted, but not kept: the extended model '
+                         'predicts the held-out part no better than the calibrated nominal '
+                         'model (penalised held-out gain <= 0)')
+            effects, values, extendeds = [], dict(start_values), nominals
     except (ValueError, ArithmeticError) as exc:  # a candidate the stepper cannot run
         raise DiagnosisError(f'{data_path}: the effect search failed with model={model} '
                              f'({str(exc).splitlines()[0]})') from None

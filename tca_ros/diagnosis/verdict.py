@@ -127,6 +127,28 @@ def decide_verdict(effects, nominal_stats, extended_stats):
                            f'{caution}')
 
 
+def heldout_gain_over(problems, base_sims, sims, added_params):
+    """Return the penalised held-out gain D - k ln(n) of ``sims`` over ``base_sims``.
+
+    As :func:`noise_model_gain`, on the record-rate simulations (one per problem)
+    of two complete models rather than on the fit grid: how the diagnosis
+    checks that its extended model predicts the held-out parts better than the
+    calibrated nominal one it started from.
+    """
+    pairs = []
+    for c in problems[0].channels:
+        pairs.append([(getattr(p.record, c)[p.full_split:] - getattr(b, c)[p.full_split:],
+                       getattr(p.record, c)[p.full_split:] - getattr(e, c)[p.full_split:],
+                       p.sample_rate, float(p.record.time[min(p.full_split,
+                                                              p.record.time.size - 1)]
+                                            - p.record.time[0]))
+                      for p, b, e in zip(problems, base_sims, sims)])
+    deviance, n = heldout_deviance_gain(pairs)
+    if n < added_params + 2:
+        return -math.inf
+    return deviance - added_params * math.log(n)
+
+
 def noise_model_gain(problem, base_residuals, values, added_params):
     """Return the BIC-penalised held-out gain of ``values`` under the verdict's noise model.
 
