@@ -15,7 +15,7 @@ from tca_ros.diagnosis.candidates import ABSORBED, absorbed_candidates, build_ca
 from tca_ros.diagnosis.data import read_record, record_config
 from tca_ros.diagnosis.fitting import FitProblem, Progress
 from tca_ros.diagnosis.record_ops import decimated, leading_part
-from tca_ros.diagnosis.search import search_effects
+from tca_ros.diagnosis.search import MIN_GAIN_PERCENT, search_effects
 from tca_ros.diagnosis.verdict import channel_stats, decide_verdict, gain, \
     heldout_gain_over, needs_explaining, NOTHING_TO_EXPLAIN, pooled_heldout_rmse
 
@@ -232,13 +232,14 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
         values = values if effects else dict(start_values)  # not the round-one polish
         extendeds = [p.simulate_full(values) for p in problems] if effects else nominals
         added = len([k for k in values if k not in start_values])
-        if effects and heldout_gain_over(problems, nominals, extendeds, added) <= 0.0:
+        if effects and not _beats_nominal(problems, nominals, extendeds, added):
             # each effect was accepted against the round's base (the nominal with its
             # calibration refitted); the whole extension must beat the calibrated
-            # nominal itself, or it is no improvement to report
+            # nominal itself by the search's own rule, or it is no improvement to report
             notes.append(f'{" + ".join(effects)} fitted, but not kept: the extended model '
-                         'predicts the held-out part no better than the calibrated nominal '
-                         'model (penalised held-out gain <= 0)')
+                         'does not predict the held-out part better than the calibrated '
+                         'nominal model (penalised held-out gain <= 0, or held-out RMS gain '
+                         f'below {MIN_GAIN_PERCENT:g} %)')
             effects, values, extendeds = [], dict(start_values), nominals
     except (ValueError, ArithmeticError) as exc:  # a candidate the stepper cannot run
         raise DiagnosisError(f'{data_path}: the effect search failed with model={model} '
@@ -270,6 +271,24 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
         from tca_ros.diagnosis.report import write_report
         write_report(result, report_dir)
     return result
+
+
+def _beats_nominal(problems, nominals, extendeds, added):
+    """Return True when the extension passes the search's acceptance against the nominal.
+
+    As each candidate is accepted (search._greedy): a positive penalised held-out
+    gain under the verdict's noise model (verdict.heldout_gain_over) and a
+    held-out RMS gain of at least MIN_GAIN_PERCENT, channels weighted by their
+    noise sigma, here on the record-rate simulations of both whole models.
+    """
+    if heldout_gain_over(problems, nominals, extendeds, added) <= 0.0:
+        return False
+    sigma, channels = problems[0].sigma, problems[0].channels
+    before = pooled_heldout_rmse(problems, nominals, channels)
+    after = pooled_heldout_rmse(problems, extendeds, channels)
+    score = [math.sqrt(sum((rmse[c] / sigma[c]) ** 2 for c in channels))
+             for rmse in (before, after)]
+    return score[1] <= (1.0 - MIN_GAIN_PERCENT / 100.0) * score[0]
 
 
 def _nominal_problems(records, params_of, recalibrated, options, paths):
