@@ -65,3 +65,26 @@ def test_power_loss_is_not_searched_beside_a_refitted_delivered_power_ratio():
     assert [c.name for c in kept] == [c.name for c in candidates if c.name != 'power_loss']
     kept, absorbed = absorbed_candidates(candidates, ())  # no calibration: searched
     assert absorbed == [] and len(kept) == len(candidates)
+
+
+def test_a_base_the_full_dynamics_cannot_run_is_refused_and_the_old_base_kept():
+    # seed 9050 with model=rod: an accepted candidate, scored on the fit grid, drove the
+    # record-rate rod model past the table's 260 degC melt, and the whole diagnosis
+    # failed with exit 1; now the candidate is set aside and the base is unchanged
+    from tca_ros.diagnosis.search import rebase
+    from tca_ros.model.rod_table import RodTableError
+
+    class Problem:
+        def __init__(self):
+            self.base_values, self.bases = {'a': 1.0}, []
+
+        def set_base(self, values):
+            self.base_values = dict(values)
+            if values.get('a', 0.0) > 5.0:
+                raise RodTableError('temperature 260.008 degC beyond the rod table')
+            self.bases.append(dict(values))
+
+    problem = Problem()
+    assert rebase(problem, {'a': 2.0}) and problem.base_values == {'a': 2.0}
+    assert not rebase(problem, {'a': 9.0})
+    assert problem.base_values == {'a': 2.0} and problem.bases[-1] == {'a': 2.0}

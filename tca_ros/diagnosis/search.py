@@ -70,7 +70,7 @@ def search_effects(problem, candidates, max_effects=MAX_EFFECTS, refine_top=REFI
         alt_found, alt_values, alt_rounds = _greedy(problem, candidates, max_effects,
                                                     refine_top, min_gain_percent,
                                                     first=runner_up)
-        if _heldout_bic(problem, alt_values, alt_found, candidates) < best_bic:
+        if alt_found and _heldout_bic(problem, alt_values, alt_found, candidates) < best_bic:
             alt_rounds[0] = dataclasses.replace(rounds[0], accepted=runner_up.name,
                                                 restarted=True)
             found, values, rounds = alt_found, alt_values, alt_rounds
@@ -106,13 +106,29 @@ def prune_effects(problem, found, values, candidates):
             reduced.update(fit.params)
             trials.append((_heldout_bic(problem, reduced, rest, candidates), rest, reduced))
         bic, rest, reduced = min(trials, key=lambda t: t[0])
-        if bic > best_bic:
+        if bic > best_bic or not rebase(problem, reduced):
             break
-        problem.set_base(reduced)
         reduced = polish_effects(problem, rest, spaces_of)
         best_bic, found, values = _heldout_bic(problem, reduced, rest, candidates), rest, reduced
     problem.set_base(values)
     return found, values
+
+
+def rebase(problem, values):
+    """Make ``values`` the problem's base; return False when that cannot be simulated.
+
+    A candidate is fitted and scored on the fit grid (the quasi-static reduction
+    where it applies); the full dynamics (18) at the record rate may still fail
+    for it, e.g. a rod model driven past the table's 260 degC melt. Then the base
+    is restored and the caller treats the candidate as not simulable.
+    """
+    previous = dict(problem.base_values)
+    try:
+        problem.set_base(values)
+        return True
+    except (ValueError, ArithmeticError):  # StabilityError, RodTableError are ValueErrors
+        problem.set_base(previous)
+        return False
 
 
 def _final_score(problem, values):
@@ -134,9 +150,10 @@ def _greedy(problem, candidates, max_effects, refine_top, min_gain_percent, firs
     spaces_of = {c.name: c.spaces for c in candidates}
     values = dict(problem.base_values)
     if first is not None:
+        if not rebase(problem, first.values):
+            return [], values, [None]  # the forced start cannot be simulated: no path
         rounds.append(None)  # the caller fills in the first round it forced
         found.append(first.name)
-        problem.set_base(first.values)
         values = polish_effects(problem, found, spaces_of)
         remaining = [c for c in remaining if c.name != first.name]
     while remaining and len(found) < max_effects:
@@ -182,9 +199,12 @@ def _greedy(problem, candidates, max_effects, refine_top, min_gain_percent, firs
         best = scores[0]
         if not (best.refined and best.significant):
             break
+        if not rebase(problem, best.values):  # the full dynamics cannot run it
+            best.significant = False
+            remaining = [c for c in remaining if c.name != best.name]
+            continue
         rnd.accepted = best.name
         found.append(best.name)
-        problem.set_base(best.values)
         values = polish_effects(problem, found, spaces_of)
         remaining = [c for c in remaining if c.name != best.name]
     return found, values, rounds
@@ -208,7 +228,6 @@ def polish_effects(problem, found, spaces_of, max_nfev=POLISH_NFEV):
     polished.update(fit.params)
     before = problem.train_residuals(values)
     after = problem.train_residuals(polished)
-    if fit.success and after @ after < before @ before:
-        problem.set_base(polished)
+    if fit.success and after @ after < before @ before and rebase(problem, polished):
         return polished
     return values
