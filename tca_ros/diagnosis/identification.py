@@ -12,7 +12,7 @@ import numpy as np
 
 from tca_ros.diagnosis.candidates import ABSORBED, absorbed_candidates, build_candidates, \
     recalibration_spaces
-from tca_ros.diagnosis.data import read_record, record_config
+from tca_ros.diagnosis.data import DataError, read_record, record_config
 from tca_ros.diagnosis.fitting import FitProblem, Progress
 from tca_ros.diagnosis.record_ops import decimated, leading_part
 from tca_ros.diagnosis.search import MIN_GAIN_PERCENT, search_effects
@@ -160,7 +160,6 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
     """
     from tca_ros.model.params import load_params
     from tca_ros.diagnosis import fitting
-    from tca_ros.diagnosis.data import DataError
 
     from tca_ros.model.quasistatic import clear_map_cache
     start = wallclock.perf_counter()
@@ -299,7 +298,6 @@ def _nominal_problems(records, params_of, recalibrated, options, paths):
     records whose channels differ) or ArithmeticError when the nominal model
     cannot simulate a record.
     """
-    from tca_ros.diagnosis.data import DataError
     from tca_ros.diagnosis.problem_set import FitProblemSet
     problems = [FitProblem(r, p, **options) for r, p in zip(records, params_of)]
     try:
@@ -319,7 +317,7 @@ def _nominal_problems(records, params_of, recalibrated, options, paths):
 
 def _read_any(path, config):
     """Return the Record of a CSV or a rosbag2 recording (a bag needs ``config``)."""
-    from tca_ros.diagnosis.data import DataError, read_bag_record
+    from tca_ros.diagnosis.data import read_bag_record
     from tca_ros.model.params import load_params
     if os.path.isdir(path) or str(path).endswith('.mcap'):
         if config is None:
