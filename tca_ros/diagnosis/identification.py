@@ -224,7 +224,8 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
     effects, values, rounds = [], dict(start_values), []
     try:
         # an effect may show in the training part only (creep settled before the split)
-        if needs_explaining(nominal_stats, channel_stats(problems, nominals, whole=True)):
+        whole_stats = channel_stats(problems, nominals, whole=True)
+        if needs_explaining(nominal_stats, whole_stats):
             effects, values, rounds = search_effects(problem, candidates)
         else:  # what the nominal model leaves is noise by the verdict's test: no search
             notes.append(NOTHING_TO_EXPLAIN)
@@ -250,7 +251,8 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
     extended_rmse = pooled_heldout_rmse(problems, extendeds, channels)
     extended_stats = channel_stats(problems, extendeds,
                                    [p.parameters(values) for p in problems])
-    verdict, explanation = decide_verdict(effects, nominal_stats, extended_stats)
+    verdict, explanation = decide_verdict(effects, nominal_stats, extended_stats,
+                                          whole_stats)
     helpful = []
     if verdict == 'unexplained' and effects:
         # what helps is shown, but an effect that leaves structure is not a cause

@@ -101,18 +101,27 @@ def _structure_summary(stats):
     return '; '.join(parts)
 
 
-def decide_verdict(effects, nominal_stats, extended_stats):
+def decide_verdict(effects, nominal_stats, extended_stats, nominal_whole_stats=None):
     """Return (verdict, one-sentence explanation) from the residual structure.
 
     A channel is structured when the inputs still predict a practically relevant
     part of its held-out residual (noise.structure_test; the noise may be
     coloured, drifting or quantised). 'adequate': nothing added and no channel
-    structured; 'explained': effects added and no channel structured;
-    'unexplained': structure remains.
+    structured, neither on the held-out part nor, when ``nominal_whole_stats``
+    is given, on the whole record (the reason a search ran: the training part
+    can show what the held-out part's test does not resolve); 'explained':
+    effects added and no channel structured; 'unexplained': structure remains.
     """
     stats = extended_stats if effects else nominal_stats
     structured = [st.channel for st in stats.values() if st.structured]
     summary = _structure_summary(stats)
+    whole = [] if effects or not nominal_whole_stats else \
+        [st.channel for st in nominal_whole_stats.values() if st.structured]
+    if not structured and whole:
+        return 'unexplained', (
+            'the inputs predict the residual of the whole record in '
+            f'{", ".join(whole)} ({_structure_summary(nominal_whole_stats)}), though not of '
+            f'the held-out part alone ({summary}), and no candidate improves the held-out fit')
     if not structured:
         if effects:
             return 'explained', (f'what remains after adding {" + ".join(effects)} does not '
