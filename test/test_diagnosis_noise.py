@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 
 from tca_ros.diagnosis.noise import (
-    ar_fit, ar_order, detrended, first_order_lag, heldout_deviance_gain, input_terms,
-    quantisation_sigma, quantisation_step, structure_test)
+    ar_fit, ar_order, first_order_lag, heldout_deviance_gain, input_terms,
+    quantisation_sigma, quantisation_step, remove_nuisance, structure_test)
 from tca_ros.diagnosis.realistic import ar1
 
 RATE = 20.0  # Hz
@@ -82,12 +82,12 @@ def _penalised(pairs, k=1):
     return deviance - k * math.log(n)
 
 
-def test_detrended_removes_offset_and_drift_only():
+def test_remove_nuisance_without_a_start_removes_offset_and_drift_only():
     t = np.linspace(0.0, 1.0, 200)
     wave = np.sin(12.0 * t)
-    out = detrended(3.0 + 2.0 * t + wave)
+    out = remove_nuisance(3.0 + 2.0 * t + wave, RATE)
     assert abs(out.mean()) < 1e-12
-    assert np.allclose(out, detrended(wave))
+    assert np.allclose(out, remove_nuisance(wave, RATE))
 
 
 @pytest.mark.parametrize('seed', range(4))

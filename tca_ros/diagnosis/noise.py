@@ -323,16 +323,6 @@ def _within_block_ms(segments, rate_hz):
     return total / count if count else 0.0
 
 
-def detrended(values):
-    """Return ``values`` minus its least-squares offset and linear drift (same units)."""
-    values = np.asarray(values, dtype=float)
-    if values.size < 3:
-        return values - values.mean() if values.size else values
-    basis = np.column_stack([np.ones(values.size), np.linspace(-1.0, 1.0, values.size)])
-    coef, *_ = np.linalg.lstsq(basis, values, rcond=None)
-    return values - basis @ coef
-
-
 def heldout_deviance_gain(pairs, rate_hz=STRUCTURE_RATE_HZ):
     """Return (deviance gain, samples) of a candidate over a base on held-out data.
 
