@@ -35,7 +35,7 @@ import math
 import numpy as np
 
 from tca_ros.diagnosis import engine
-from tca_ros.diagnosis.fitting import Progress
+from tca_ros.diagnosis.progress import Progress
 from tca_ros.model.dynamics import critical_damping
 from tca_ros.model.kinetostatics import static_elongation
 from tca_ros.model.quasistatic import make_statics, QuasiStaticPlant

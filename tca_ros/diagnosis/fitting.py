@@ -17,16 +17,18 @@ Method (docs/diagnosis.md)
    the best of each measured channel) are refined by bounded nonlinear least
    squares (scipy trust-region reflective).
 5. The search over candidates that uses these fits: ``search.py``.
+
+The result types and the standard errors are in ``fit_result.py``, the
+progress bar that counts the simulations in ``progress.py``.
 """
-from dataclasses import dataclass, field
 import math
-import sys
-import time as wallclock
 
 import numpy as np
 from scipy.optimize import least_squares
 
+from tca_ros.diagnosis.fit_result import CandidateScore, FitResult, standard_errors
 from tca_ros.diagnosis.noise import quantisation_sigma
+from tca_ros.diagnosis.progress import Progress
 from tca_ros.diagnosis.residuals import lag_one_autocorrelation, noise_sigma
 from tca_ros.model.params import SPECS
 from tca_ros.model.quasistatic import QuasiStaticUnsupported, simulate_quasistatic
@@ -41,84 +43,6 @@ MIN_PHYSICS_RATE_HZ = 200.0  # record-rate simulations step at least this fast (
 MAX_NFEV = 8  # least-squares iterations (function evaluations, Jacobian excluded)
 DIFF_STEP = 2e-3  # finite-difference step in the unit-scaled parameters
 STOP = 'coil.min_pitch_angle_deg'  # the coil-contact parameter (deg)
-PROGRESS_INTERVAL = 0.25  # s between progress-bar redraws
-
-
-@dataclass
-class FitResult:
-    """Result of fitting one candidate's parameters (STYLE.md section 6).
-
-    ``params``, ``units`` and ``stderr`` are keyed by dotted parameter name, in
-    schema units; ``residual_rms`` is the training residual RMS in noise units
-    (1 = the sensor noise); ``n_samples`` counts training residuals.
-    """
-
-    name: str
-    params: dict
-    units: dict
-    stderr: dict
-    residual_rms: float
-    n_samples: int
-    success: bool
-    message: str
-
-
-@dataclass
-class CandidateScore:
-    """A fitted candidate scored on the held-out part of the record."""
-
-    fit: FitResult
-    heldout_cost: float  # sum of squared noise-normalised residuals
-    heldout_score: float  # RMS of the noise-normalised residuals (-)
-    heldout_rmse: dict  # channel -> RMSE (m or K)
-    n_heldout: int
-    lag_one: float  # autocorrelation of the held-out residuals (coarse grid)
-    refined: bool
-    criterion: float = -math.inf  # penalised log-likelihood gain over the base
-    significant: bool = False
-    values: dict = field(default_factory=dict)  # base + this candidate's parameters
-
-    @property
-    def name(self):
-        """Return the candidate's effect name."""
-        return self.fit.name
-
-
-class Progress:
-    """A one-line progress bar on stderr, counting simulations."""
-
-    def __init__(self, enabled, total, width=30, stream=None):
-        self.enabled = enabled
-        self.total = max(total, 1)
-        self.width = width
-        self.count = 0
-        self.label = ''
-        self.stream = stream or sys.stderr
-        self.start = wallclock.perf_counter()
-        self._drawn = -math.inf
-
-    def tick(self, label=None):
-        """Count one simulation and redraw."""
-        self.count += 1
-        if label is not None:
-            self.label = label
-        if not self.enabled:
-            return
-        now = wallclock.perf_counter()
-        if now - self._drawn < PROGRESS_INTERVAL and self.count < self.total:
-            return
-        self._drawn = now
-        filled = min(self.width, int(self.width * self.count / self.total))
-        elapsed = wallclock.perf_counter() - self.start
-        self.stream.write(f'\r[{"#" * filled}{"." * (self.width - filled)}] '
-                          f'{self.count:4d} sims {elapsed:5.1f} s  {self.label:<28s}')
-        self.stream.flush()
-
-    def close(self):
-        """End the bar's line."""
-        if self.enabled:
-            self.stream.write('\n')
-            self.stream.flush()
 
 
 def _block_mean(values, k, m):
@@ -412,7 +336,7 @@ class FitProblem:
         n = residual.size
         failed = bool(np.all(residual == FAILED_RESIDUAL))
         params = {s.name: values[s.name] for s in spaces}
-        stderr = _standard_errors(spaces, z, residual, jac)
+        stderr = standard_errors(spaces, z, residual, jac)
         return FitResult(name=candidate.name, params=params,
                          units={s.name: SPECS[s.name].unit for s in spaces},
                          stderr=stderr, residual_rms=float(np.sqrt(np.mean(residual ** 2))),
@@ -427,29 +351,3 @@ class FitProblem:
         return CandidateScore(fit=fit, heldout_cost=cost,
                               heldout_score=math.sqrt(cost / n), heldout_rmse=rmse,
                               n_heldout=n, lag_one=rho, refined=refined, values=values)
-
-
-def _standard_errors(spaces, z, residual, jac):
-    """Return {name: stderr} (schema units) from the Gauss-Newton covariance.
-
-    cov(z) = s^2 (J^T J)^-1 with s^2 = SSE / (n - p); mapped to parameter units by
-    the derivative of each space's scaling. Residual autocorrelation makes these
-    optimistic; NaN when the Jacobian is singular or unavailable.
-    """
-    out = {s.name: math.nan for s in spaces}
-    if jac is None:
-        return out
-    n, p = jac.shape
-    if n <= p:
-        return out
-    s2 = float(residual @ residual) / (n - p)
-    try:
-        cov = np.linalg.inv(jac.T @ jac) * s2
-    except np.linalg.LinAlgError:
-        return out
-    for i, s in enumerate(spaces):
-        h = 1e-6
-        slope = (s.from_unit(z[i] + h) - s.from_unit(z[i] - h)) / (2.0 * h)
-        var = cov[i, i]
-        out[s.name] = abs(slope) * math.sqrt(var) if var >= 0.0 else math.nan
-    return out

@@ -13,7 +13,8 @@ import numpy as np
 from tca_ros.diagnosis.candidates import ABSORBED, absorbed_candidates, build_candidates, \
     recalibration_spaces
 from tca_ros.diagnosis.data import DataError, read_record, record_config
-from tca_ros.diagnosis.fitting import FitProblem, Progress
+from tca_ros.diagnosis.fitting import FitProblem
+from tca_ros.diagnosis.progress import Progress
 from tca_ros.diagnosis.record_ops import decimated, leading_part
 from tca_ros.diagnosis.search import MIN_GAIN_PERCENT, search_effects
 from tca_ros.diagnosis.verdict import channel_stats, decide_verdict, gain, \
