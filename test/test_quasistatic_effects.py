@@ -131,7 +131,7 @@ def test_heat_loss_is_the_loss_of_the_stepper(values):
     balance = qe.HeatBalance.of(p)
     e = p.effects
     for temp in (-10.0, 24.0, 25.0, 25.5, 80.0, 200.0):
-        # dynamics.TcaSimulator._thermal_rate: h c_s A_0 (T - T_inf) factor + radiation
+        # thermal_step.ThermalStepper.rate: h c_s A_0 (T - T_inf) factor + radiation
         expected = balance.conductance * (temp - balance.ambient) * fx.convection_factor(
             temp, balance.ambient, e) + fx.radiation_loss(
                 temp, balance.ambient, 2.0 * math.pi * p.fiber.radius * p.fiber.length, e)

@@ -8,8 +8,8 @@ changes (``set_dt``, or a re-planned substep count) it is moved to q(t_i - h_new
 import numpy as np
 import pytest
 
-from tca_ros.model.dynamics import central_difference_acceleration, rescaled_previous
 from tca_ros.model.dynamics import TcaSimulator
+from tca_ros.model.end_motion import central_difference_acceleration, rescaled_previous
 
 POWER = 1.0  # W: the free-stroke TCA contracts ~mm/s at the switch
 SWITCH = 1.0  # s

@@ -36,7 +36,7 @@ import numpy as np
 
 from tca_ros.diagnosis import engine
 from tca_ros.diagnosis.progress import Progress
-from tca_ros.model.dynamics import critical_damping
+from tca_ros.model.end_motion import critical_damping
 from tca_ros.model.kinetostatics import static_elongation
 from tca_ros.model.quasistatic import make_statics, QuasiStaticPlant
 from tca_ros.model.simulation import simulate

@@ -28,26 +28,27 @@ State coordinate: q, the elongation (m) of the free end from the natural length
 l*, positive when stretched; the displacement published is the contraction
 x = q_ref - q from the loaded equilibrium at ambient (positive when shorter).
 
-This module holds the stepper (``TcaSimulator``) and its central-difference
-kernels; a whole sampled profile is run by ``simulate`` in simulation.py, which
-also holds ``static_displacement``.
+This module holds the stepper (``TcaSimulator``) and plans its substeps; the
+schemes of (18) (central-difference kernels, backward Euler, friction) are in
+end_motion.py, the heat balance (1) under the drive's dead time in thermal_step.py.
+A whole sampled profile is run by ``simulate`` in simulation.py, which also holds
+``static_displacement``.
 """
-import collections
 from dataclasses import dataclass
 import math
 
 from tca_ros.model import effects as fx
+from tca_ros.model.end_motion import central_difference_limit, central_difference_step
+from tca_ros.model.end_motion import EndMotion
 from tca_ros.model.kinetostatic_models import make_kinetostatic_model
 from tca_ros.model.kinetostatics import contact_elongation, static_elongation
 from tca_ros.model.limits import check_thread_strength
 from tca_ros.model.resistance import resistance
-from tca_ros.model.thermal import heat_capacity, surface_area, thermal_conductance
+from tca_ros.model.thermal_step import ThermalStepper
 
 STABILITY_SAFETY = 0.9  # fraction of the central-difference limit 2/omega used per substep
 MAX_SUBSTEPS = 1000  # beyond this, ask for the quasi-static mode instead
 STABILITY_RECHECK = 100  # steps between re-evaluations of the stability limit (k drifts slowly)
-RK4_REAL_LIMIT = 2.785  # h lambda on the negative real axis where classical RK4 turns unstable
-THERMAL_CHECK_RISE = 300.0  # K above ambient at which the nonlinear thermal limit is also taken
 EQUILIBRIUM_TOLERANCE = 0.05  # relative tension error beyond which a start state is refused
 
 
@@ -77,56 +78,55 @@ class TcaState:
     stuck: bool = True  # the free end is held by static friction ('friction' effect)
 
 
-def central_difference_step(q, q_prev, force, mass, damping, dt):
-    """Return q_{i+1} (m) of m q'' + b q' = force (N), central differences [1, V-B4].
+def checked_dt(dt):
+    """Return the physics step dt (s) as a float; ValueError unless positive and finite."""
+    if not (isinstance(dt, (int, float)) and math.isfinite(dt) and dt > 0.0):
+        raise ValueError(f'dt = {dt!r}: must be a positive number of seconds')
+    return float(dt)
 
-    ``force`` is the net force F_load - f_rod(q_i) (N) at step i.
+
+def creep_limit(stiffness, effects):
+    """Return the substep (s) below which explicit Euler creep decays monotonically.
+
+    The creep element in series with the coil (``stiffness`` k, N/m) relaxes at the
+    rate (1 + C k) / tau_c, not 1 / tau_c: a compliant creep on a stiff coil is
+    stiff. inf (s) without creep.
     """
-    a = mass / (dt * dt)
-    c = damping / (2.0 * dt)
-    return (force + a * (2.0 * q - q_prev) + c * q_prev) / (a + c)
-
-
-def central_difference_acceleration(q, q_prev, force, mass, damping, h):
-    """Return q'' (m/s^2) at step i of m q'' + b q' = force (N), q' = v_{i-1/2} + q'' h/2.
-
-    ``q``, ``q_prev`` (m) are q_i and q_{i-1} at spacing ``h`` (s): their difference
-    is the velocity half a step back, and the acceleration carries it to step i.
-    """
-    half_velocity = (q - q_prev) / h
-    return (force - damping * half_velocity) / (mass + 0.5 * damping * h)
-
-
-def rescaled_previous(q, q_prev, h_old, h_new, acceleration=0.0):
-    """Return q_{i-1} (m) at spacing h_new (s) from q_i, q_{i-1} (m) at spacing h_old (s).
-
-    The central difference keeps its velocity in q_i - q_{i-1}; when the substep
-    changes, q_{i-1} moves to q(t_i - h_new), a Taylor expansion about t_i:
-
-        v_i = (q_i - q_{i-1}) / h_old + a_i h_old / 2
-        q(t_i - h_new) = q_i - h_new v_i + a_i h_new^2 / 2
-
-    so the next step sees the same motion (no kick). ``acceleration`` a_i (m/s^2):
-    zero keeps the half-step velocity (first order in h_new - h_old).
-    """
-    velocity = (q - q_prev) / h_old + 0.5 * acceleration * h_old
-    return q - h_new * velocity + 0.5 * acceleration * h_new * h_new
-
-
-def critical_damping(stiffness, mass):
-    """Return the critical damping 2 sqrt(k m) (N s/m) of eq. (18) about an equilibrium.
-
-    ``stiffness`` k = d f_rod / d y (N/m) there, ``mass`` m (kg); b_t above it
-    gives no overshoot, b_t / k (s) is the mechanical lag behind the statics.
-    """
-    return 2.0 * math.sqrt(max(stiffness, 0.0) * max(mass, 0.0))
-
-
-def central_difference_limit(stiffness, mass):
-    """Return the stability limit 2 / omega (s) of the central-difference step."""
-    if mass <= 0.0 or stiffness <= 0.0:
+    e = effects
+    if e.creep_compliance <= 0.0:
         return math.inf
-    return 2.0 * math.sqrt(mass / stiffness)
+    return e.creep_time_constant / (1.0 + e.creep_compliance * max(stiffness, 0.0))
+
+
+def substep_count(dt, limit):
+    """Return the number of equal substeps of dt (s) within STABILITY_SAFETY * limit (s).
+
+    MAX_SUBSTEPS + 1 when the limit is zero or not a number, or needs more.
+    """
+    limit = STABILITY_SAFETY * limit
+    if limit == math.inf:
+        return 1
+    if not limit > 0.0 or dt / limit > MAX_SUBSTEPS:  # also a NaN limit
+        return MAX_SUBSTEPS + 1
+    return max(1, math.ceil(dt / limit))
+
+
+def stability_error(mass, mechanical, others, dt):
+    """Return the StabilityError naming the binding limit of a step dt (s).
+
+    ``mechanical`` is 2/omega (s) of a free ``mass`` (kg), ``others`` the thermal
+    and creep limits (s).
+    """
+    if not mechanical > others:
+        return StabilityError(
+            f'dynamics.mass = {mass:g} kg: explicit limit '
+            f'2/omega = {mechanical:.3g} s needs more than {MAX_SUBSTEPS} substeps '
+            f'of dt = {dt:g} s; allowed at most {MAX_SUBSTEPS} '
+            '(use mass 0 for the quasi-static mode or a smaller dt)')
+    return StabilityError(
+        f'thermal or creep limit {others:.3g} s needs more than {MAX_SUBSTEPS} '
+        f'substeps of dt = {dt:g} s (check thermal.*, effects.emissivity, '
+        'effects.convection_exponent, effects.creep_time_constant, or a smaller dt)')
 
 
 class TcaSimulator:
@@ -146,21 +146,11 @@ class TcaSimulator:
 
     def __init__(self, params, model=None, dt=1e-3, kinetostatics=None):
         self.params = params
-        self.dt = self._checked_dt(dt)
+        self.dt = checked_dt(dt)
         self.kinetostatics = kinetostatics or make_kinetostatic_model(params, model)
-        self._heat_capacity = heat_capacity(params.fiber)
-        self._conductance = thermal_conductance(params.fiber, params.thermal)
-        self._area = surface_area(params.fiber)
-        self._ambient = fx.true_ambient(params.thermal, params.effects)
+        self._heat = ThermalStepper(params)  # eq. (1) and the drive's dead time
         self._contact = contact_elongation(params)
-        self._linear_thermal = (params.effects.emissivity == 0.0
-                                and params.effects.convection_exponent == 0.0)
-        self._decay_step = None  # s, the substep self._decay (-) was computed for
-        self._decay = None
-        # W heating the fiber per W logged (heating_power is linear in P)
-        self._heating_gain = fx.heating_power(1.0, params.effects,
-                                              params.thermal.delivered_power_ratio)
-        self._dead_time = params.effects.dead_time  # s
+        self._motion = EndMotion(self.kinetostatics, self._contact, params)
         self._sensor_lag = params.effects.sensor_lag != 0.0
         self._substeps = 1
         self._steps_since_check = 0
@@ -178,11 +168,12 @@ class TcaSimulator:
         """
         p = self.params
         load = p.dynamics.load if load is None else float(load)
-        temp = self._ambient if temperature is None else float(temperature)
+        ambient = self._heat.ambient
+        temp = ambient if temperature is None else float(temperature)
         q = self.equilibrium(load, temp)
-        self.reference_elongation = self.equilibrium(load, self._ambient)
+        self.reference_elongation = self.equilibrium(load, ambient)
         self.loaded_length = self.kinetostatics.natural_length + self.reference_elongation
-        self._drive = collections.deque()  # (start time (s), power (W)) for the dead time
+        self._heat.reset()
         self.state = TcaState(time=0.0, temperature=temp, actuation_temperature=temp,
                               fiber_temperature=temp,
                               elongation=q, previous_elongation=q, load=load)
@@ -218,19 +209,13 @@ class TcaSimulator:
         """
         return static_elongation(self.kinetostatics, load, temperature)
 
-    @staticmethod
-    def _checked_dt(dt):
-        if not (isinstance(dt, (int, float)) and math.isfinite(dt) and dt > 0.0):
-            raise ValueError(f'dt = {dt!r}: must be a positive number of seconds')
-        return float(dt)
-
     def set_dt(self, dt):
         """Change the physics step (s), keeping the state; re-plan the substeps.
 
         Raises StabilityError (and keeps the old step) when dt needs more than
         MAX_SUBSTEPS substeps.
         """
-        old, self.dt = self.dt, self._checked_dt(dt)
+        old, self.dt = self.dt, checked_dt(dt)
         try:
             self._substeps = self.check_step()
         except StabilityError:
@@ -238,75 +223,42 @@ class TcaSimulator:
             raise
         self._steps_since_check = 0
 
+    def _stiffness(self):
+        """Return the coil's k = d f_rod / d q (N/m) at the state (contact bounds q)."""
+        s = self.state
+        return self.kinetostatics.stiffness(max(s.elongation - s.creep, self._contact),
+                                            s.actuation_temperature)
+
     def stability_limit(self):
         """Return the central-difference stability limit 2/omega (s) at the state."""
-        s = self.state
-        k = self.kinetostatics.stiffness(max(s.elongation - s.creep, self._contact),
-                                         s.actuation_temperature)
-        return central_difference_limit(k, self.params.dynamics.mass)
+        return central_difference_limit(self._stiffness(), self.params.dynamics.mass)
 
     def thermal_limit(self):
         """Return the largest stable substep (s) of the RK4 thermal update (inf if exact).
 
-        The linear eq. (1) is updated exactly. With radiation or nonlinear convection
-        RK4 needs h lambda < 2.785, lambda = d(loss)/dT / (m c_p), taken at the state
-        and THERMAL_CHECK_RISE above ambient (the temperature rises between re-checks).
+        See ``ThermalStepper.limit``; taken at the state's temperature.
         """
-        if self._linear_thermal:
-            return math.inf
-        e = self.params.effects
-        rate = 0.0
-        for temp in (self.state.temperature, self._ambient + THERMAL_CHECK_RISE):
-            convection = self._conductance * (1.0 + e.convection_exponent) \
-                * fx.convection_factor(temp, self._ambient, e)
-            radiation = 4.0 * e.emissivity * fx.STEFAN_BOLTZMANN * self._area * (
-                abs(temp) + fx.KELVIN) ** 3
-            rate = max(rate, (convection + radiation) / self._heat_capacity)
-        return RK4_REAL_LIMIT / rate if rate > 0.0 else math.inf
+        return self._heat.limit(self.state.temperature)
 
     def _creep_limit(self):
-        """Return the substep (s) below which explicit Euler creep decays monotonically.
-
-        The creep element in series with the coil (stiffness k) relaxes at the rate
-        (1 + C k) / tau_c, not 1 / tau_c: a compliant creep on a stiff coil is stiff.
-        """
+        """Return the creep's explicit-Euler limit (s) at the state (``creep_limit``)."""
         e = self.params.effects
-        if e.creep_compliance <= 0.0:
-            return math.inf
-        s = self.state
-        k = self.kinetostatics.stiffness(max(s.elongation - s.creep, self._contact),
-                                         s.actuation_temperature)
-        return e.creep_time_constant / (1.0 + e.creep_compliance * max(k, 0.0))
+        return math.inf if e.creep_compliance <= 0.0 else creep_limit(self._stiffness(), e)
 
     def substeps(self):
         """Return the number of equal substeps one step of dt needs to stay stable.
 
         MAX_SUBSTEPS + 1 when a limit is zero or not a number, or needs more.
         """
-        limit = STABILITY_SAFETY * min(self.stability_limit(), self.thermal_limit(),
-                                       self._creep_limit())
-        if limit == math.inf:
-            return 1
-        if not limit > 0.0 or self.dt / limit > MAX_SUBSTEPS:  # also a NaN limit
-            return MAX_SUBSTEPS + 1
-        return max(1, math.ceil(self.dt / limit))
+        return substep_count(self.dt, min(self.stability_limit(), self.thermal_limit(),
+                                          self._creep_limit()))
 
     def check_step(self):
         """Raise StabilityError when dt needs more than MAX_SUBSTEPS substeps."""
         n = self.substeps()
         if n > MAX_SUBSTEPS:
-            mechanical = self.stability_limit()
-            others = min(self.thermal_limit(), self._creep_limit())
-            if not mechanical > others:
-                raise StabilityError(
-                    f'dynamics.mass = {self.params.dynamics.mass:g} kg: explicit limit '
-                    f'2/omega = {mechanical:.3g} s needs more than {MAX_SUBSTEPS} substeps '
-                    f'of dt = {self.dt:g} s; allowed at most {MAX_SUBSTEPS} '
-                    '(use mass 0 for the quasi-static mode or a smaller dt)')
-            raise StabilityError(
-                f'thermal or creep limit {others:.3g} s needs more than {MAX_SUBSTEPS} '
-                f'substeps of dt = {self.dt:g} s (check thermal.*, effects.emissivity, '
-                'effects.convection_exponent, effects.creep_time_constant, or a smaller dt)')
+            raise stability_error(self.params.dynamics.mass, self.stability_limit(),
+                                  min(self.thermal_limit(), self._creep_limit()), self.dt)
         return n
 
     # -- stepping -----------------------------------------------------------------
@@ -331,21 +283,23 @@ class TcaSimulator:
         q, y_c = s.elongation, s.creep
         # eq. (1) first; the explicit step below still uses f_rod(q_i, T_i) (s.tension),
         # the implicit quasi-static steps use T_{i+1}
-        s.temperature = self._thermal_step(s.temperature, self._delayed(power, h), h)
+        heat = self._heat
+        s.temperature = heat.step(s.temperature, heat.delayed(power, s.time, h), h)
         s.fiber_temperature = fx.second_lag_step(s.fiber_temperature, s.temperature, h,
                                                  p.effects)
         s.actuation_temperature = fx.play_operator(
             s.fiber_temperature, s.actuation_temperature, p.effects.hysteresis_width)
         if mass > 0.0 and self._step_length not in (None, h):
-            self._rescale_previous(q, load, h)
+            self._motion.rescale_previous(s, q, load, self._step_length, h)
         self._step_length = h
         if p.effects.friction_force > 0.0:
-            q_next = self._friction_step(q, y_c, load, mass, damping, h)
+            q_next = self._motion.friction_step(s, q, y_c, load, mass, damping, h)
         elif mass > 0.0:
             q_next = central_difference_step(q, s.previous_elongation, load - s.tension,
                                              mass, damping, h)
         elif damping > 0.0:
-            q_next = self._backward_euler(q, y_c, load, s.actuation_temperature, damping, h)
+            q_next = self._motion.backward_euler(q, y_c, load, s.actuation_temperature,
+                                                 damping, h)
         else:
             q_next = y_c + model.equilibrium_elongation(load, s.actuation_temperature,
                                                         guess=q - y_c)
@@ -363,112 +317,6 @@ class TcaSimulator:
         s.tension = model.tension(s.elongation - s.creep, s.actuation_temperature, s.tension)
         check_thread_strength(s.tension, p.fiber, s.time)  # the thread breaks: end the run
         self._update_outputs(s, h)
-
-    def _rescale_previous(self, q, load, h):
-        """Move q_{i-1} to h (s) before q_i when the substep length changes.
-
-        The acceleration from eq. (18) at step i makes the rescaling second order;
-        with friction the holding force is not known here, so the half-step velocity
-        is kept instead (first order).
-        """
-        s, d = self.state, self.params.dynamics
-        old = self._step_length
-        accel = 0.0
-        if self.params.effects.friction_force == 0.0:
-            accel = central_difference_acceleration(q, s.previous_elongation, load - s.tension,
-                                                    d.mass, d.damping, old)
-        s.previous_elongation = rescaled_previous(q, s.previous_elongation, old, h, accel)
-
-    def _friction_step(self, q, y_c, load, mass, damping, h):
-        """Return q_{i+1} (m) of eq. (18) with Coulomb friction on the free end.
-
-        With mass, the central-difference step is linear in the friction force f,
-        q_{i+1} = q_free + f / (m / h^2 + b / (2 h)): the force holding the end at
-        q_i follows, and ``effects.coulomb_friction`` keeps it or slides against
-        F_k. Massless, the holding force is f_rod(q_i, T_{i+1}) - F and a sliding
-        end moves under F -+ F_k (backward Euler, or the band edge when b = 0: the
-        play operator of effects.friction_play).
-        """
-        s, e = self.state, self.params.effects
-        model = self.kinetostatics
-        temp = s.actuation_temperature
-        if mass > 0.0:
-            q_free = central_difference_step(q, s.previous_elongation, load - s.tension,
-                                             mass, damping, h)
-            inverse = mass / (h * h) + 0.5 * damping / h  # d(force) / d(q_{i+1}), N/m
-            force, s.stuck = fx.coulomb_friction(inverse * (q - q_free), s.stuck, e)
-            return q if s.stuck else q_free + force / inverse
-        holding = model.tension(max(q - y_c, self._contact), temp, s.tension) - load
-        force, s.stuck = fx.coulomb_friction(holding, s.stuck, e)
-        if s.stuck:
-            return q
-        if damping > 0.0:
-            return self._backward_euler(q, y_c, load + force, temp, damping, h)
-        return y_c + model.equilibrium_elongation(load + force, temp, guess=q - y_c)
-
-    def _delayed(self, power, h):
-        """Return the mean power (W) over [t - d, t - d + h]: the drive's dead time d (s).
-
-        The commanded power is held over each step; before the first command it is
-        zero. Averaging over the delayed interval keeps the heat delivered and
-        makes the result continuous in d (a fit can move d by less than a step).
-        """
-        delay = self._dead_time
-        if delay <= 0.0:
-            return power
-        now = self.state.time
-        self._drive.append((now, power))
-        start, end = now - delay, now - delay + h
-        # drop segments that ended before the interval (a segment ends where the next starts)
-        while len(self._drive) > 1 and self._drive[1][0] <= start:
-            self._drive.popleft()
-        energy = 0.0
-        for i, (t0, p) in enumerate(self._drive):
-            t1 = self._drive[i + 1][0] if i + 1 < len(self._drive) else math.inf
-            overlap = min(t1, end) - max(t0, start)
-            if overlap > 0.0:
-                energy += p * overlap
-            if t1 >= end:
-                break
-        return energy / h
-
-    def _backward_euler(self, q, y_c, load, temp, damping, h):
-        """Return q_{i+1} of b (q_{i+1} - q_i)/h + f_rod(q_{i+1}) = F (Newton)."""
-        model = self.kinetostatics
-        y = q - y_c
-        for _ in range(20):
-            residual = damping * (y + y_c - q) / h + model.tension(y, temp) - load
-            slope = damping / h + model.stiffness(max(y, self._contact), temp)
-            if not slope > 0.0:  # f_rod softening faster than b/h: keep the last iterate
-                break
-            step = residual / slope
-            y -= step
-            if abs(step) < 1e-12:
-                break
-        return y + y_c
-
-    def _thermal_rate(self, temp, power):
-        """Return dT/dt (K/s) of eq. (1) with the thermal effects."""
-        e = self.params.effects
-        ambient = self._ambient
-        loss = self._conductance * (temp - ambient) * fx.convection_factor(temp, ambient, e)
-        loss += fx.radiation_loss(temp, ambient, self._area, e)
-        heating = fx.heating_power(power, e, self.params.thermal.delivered_power_ratio)
-        return (heating - loss) / self._heat_capacity
-
-    def _thermal_step(self, temp, power, h):
-        """Return T after h (s), power held constant: exact if linear, else RK4."""
-        if self._linear_thermal:
-            target = self._ambient + self._heating_gain * power / self._conductance
-            if h != self._decay_step:  # exp(-h G / C) is kept while h is (G, C are fixed)
-                self._decay_step = h
-                self._decay = math.exp(-h * self._conductance / self._heat_capacity)
-            return target + (temp - target) * self._decay
-        k1 = self._thermal_rate(temp, power)
-        k2 = self._thermal_rate(temp + 0.5 * h * k1, power)
-        k3 = self._thermal_rate(temp + 0.5 * h * k2, power)
-        k4 = self._thermal_rate(temp + h * k3, power)
-        return temp + h * (k1 + 2.0 * k2 + 2.0 * k3 + k4) / 6.0
 
     def _update_outputs(self, s, h):
         p = self.params

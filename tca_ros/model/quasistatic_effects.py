@@ -66,7 +66,7 @@ class HeatBalance:
 
     @classmethod
     def of(cls, params):
-        """Return the heat balance of TcaParams ``params`` (as dynamics.py builds it)."""
+        """Return the heat balance of TcaParams ``params`` (as thermal_step.py builds it)."""
         e = params.effects
         ambient = float(fx.true_ambient(params.thermal, e))
         # Python floats: numpy scalars would make the RK4 loop several times slower
@@ -115,7 +115,7 @@ def heat_loss_slope(temp, balance):
 def rk4_thermal_march(temp, heating, steps, balance):
     """Return T (degC) after each step of eq. (1') from ``temp`` (degC), a list.
 
-    Classical Runge-Kutta, as dynamics.TcaSimulator steps eq. (1) when it is
+    Classical Runge-Kutta, as thermal_step.ThermalStepper steps eq. (1) when it is
     nonlinear: heating P_in ``heating[j]`` (W) held over ``steps[j]`` (s), both
     sequences of floats.
     """

@@ -51,9 +51,9 @@ References
 import math
 
 from tca_ros.model import effects as fx
-from tca_ros.model.dynamics import central_difference_limit, central_difference_step
 from tca_ros.model.dynamics import MAX_SUBSTEPS, STABILITY_RECHECK
 from tca_ros.model.dynamics import STABILITY_SAFETY, StabilityError, TcaSimulator
+from tca_ros.model.end_motion import central_difference_limit, central_difference_step
 from tca_ros.model.kinetostatic_models import make_kinetostatic_model
 from tca_ros.model.kinetostatics import KinetostaticModel
 from tca_ros.model.kinetostatics import static_elongation
@@ -201,8 +201,9 @@ class HeldMuscle(TcaSimulator):
     def hold(self, power, elongation, h):
         """Advance h (s) under power (W) with the end at elongation q (m); return state."""
         s = self.state
-        applied = self._delayed(power, h) if self._dead_time > 0.0 else power  # W
-        s.temperature = temp = self._thermal_step(s.temperature, applied, h)
+        heat = self._heat
+        applied = heat.delayed(power, s.time, h) if heat.dead_time > 0.0 else power  # W
+        s.temperature = temp = heat.step(s.temperature, applied, h)
         if self._fiber_lags:
             e = self.params.effects
             s.fiber_temperature = fx.second_lag_step(s.fiber_temperature, temp, h, e)

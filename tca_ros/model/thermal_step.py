@@ -1,0 +1,129 @@
+"""The fiber's heat balance, eq. (1) of [1], stepped under the drive's dead time.
+
+    m_t c_p dT/dt = -h c_s A_0 (T - T_inf) + P_in                        (1)
+
+with the thermal effects of effects.py (radiation, nonlinear convection, a
+delivered-power ratio, a drive dead time). The power is held over each step
+(zero-order hold): while eq. (1) is linear its step is exact, otherwise it is
+classical Runge-Kutta (error below 1e-9 K per step for dt <= 10 ms, tau = 3 s).
+``ThermalStepper`` is held by the stepper of dynamics.py (and its rigs).
+"""
+import collections
+import math
+
+from tca_ros.model import effects as fx
+from tca_ros.model.thermal import heat_capacity, surface_area, thermal_conductance
+
+RK4_REAL_LIMIT = 2.785  # h lambda on the negative real axis where classical RK4 turns unstable
+THERMAL_CHECK_RISE = 300.0  # K above ambient at which the nonlinear thermal limit is also taken
+
+
+class ThermalStepper:
+    """Step the fiber temperature T (degC) of eq. (1) under a delayed drive power.
+
+    Parameters
+    ----------
+    params : TcaParams
+        The TCA: fiber, thermal and effects parameters are read.
+
+    Attributes
+    ----------
+    heat_capacity : float
+        m_t c_p (J/K).
+    conductance : float
+        h c_s A_0 (W/K).
+    area : float
+        Radiating surface (m^2).
+    ambient : float
+        T_inf (degC), including an ambient offset effect.
+    dead_time : float
+        Delay d (s) of the drive.
+    """
+
+    def __init__(self, params):
+        self.params = params
+        self.heat_capacity = heat_capacity(params.fiber)
+        self.conductance = thermal_conductance(params.fiber, params.thermal)
+        self.area = surface_area(params.fiber)
+        self.ambient = fx.true_ambient(params.thermal, params.effects)
+        self.linear = (params.effects.emissivity == 0.0
+                       and params.effects.convection_exponent == 0.0)
+        # W heating the fiber per W logged (heating_power is linear in P)
+        self.heating_gain = fx.heating_power(1.0, params.effects,
+                                             params.thermal.delivered_power_ratio)
+        self.dead_time = params.effects.dead_time  # s
+        self._decay_step = None  # s, the substep self._decay (-) was computed for
+        self._decay = None
+        self._drive = collections.deque()  # (start time (s), power (W)) for the dead time
+
+    def reset(self):
+        """Forget the drive history: no power before the next command."""
+        self._drive = collections.deque()
+
+    def delayed(self, power, now, h):
+        """Return the mean power (W) over [t - d, t - d + h]: the drive's dead time d (s).
+
+        ``power`` (W) is commanded at ``now`` = t (s) and held over the step h (s);
+        before the first command it is zero. Averaging over the delayed interval
+        keeps the heat delivered and makes the result continuous in d (a fit can
+        move d by less than a step).
+        """
+        delay = self.dead_time
+        if delay <= 0.0:
+            return power
+        self._drive.append((now, power))
+        start, end = now - delay, now - delay + h
+        # drop segments that ended before the interval (a segment ends where the next starts)
+        while len(self._drive) > 1 and self._drive[1][0] <= start:
+            self._drive.popleft()
+        energy = 0.0
+        for i, (t0, p) in enumerate(self._drive):
+            t1 = self._drive[i + 1][0] if i + 1 < len(self._drive) else math.inf
+            overlap = min(t1, end) - max(t0, start)
+            if overlap > 0.0:
+                energy += p * overlap
+            if t1 >= end:
+                break
+        return energy / h
+
+    def rate(self, temp, power):
+        """Return dT/dt (K/s) of eq. (1) with the thermal effects at T (degC), P (W)."""
+        e = self.params.effects
+        ambient = self.ambient
+        loss = self.conductance * (temp - ambient) * fx.convection_factor(temp, ambient, e)
+        loss += fx.radiation_loss(temp, ambient, self.area, e)
+        heating = fx.heating_power(power, e, self.params.thermal.delivered_power_ratio)
+        return (heating - loss) / self.heat_capacity
+
+    def step(self, temp, power, h):
+        """Return T (degC) after h (s), power (W) held: exact if linear, else RK4."""
+        if self.linear:
+            target = self.ambient + self.heating_gain * power / self.conductance
+            if h != self._decay_step:  # exp(-h G / C) is kept while h is (G, C are fixed)
+                self._decay_step = h
+                self._decay = math.exp(-h * self.conductance / self.heat_capacity)
+            return target + (temp - target) * self._decay
+        k1 = self.rate(temp, power)
+        k2 = self.rate(temp + 0.5 * h * k1, power)
+        k3 = self.rate(temp + 0.5 * h * k2, power)
+        k4 = self.rate(temp + h * k3, power)
+        return temp + h * (k1 + 2.0 * k2 + 2.0 * k3 + k4) / 6.0
+
+    def limit(self, temp):
+        """Return the largest stable substep (s) of the RK4 update at T (degC) (inf if exact).
+
+        The linear eq. (1) is updated exactly. With radiation or nonlinear convection
+        RK4 needs h lambda < 2.785, lambda = d(loss)/dT / (m c_p), taken at ``temp``
+        and THERMAL_CHECK_RISE above ambient (the temperature rises between re-checks).
+        """
+        if self.linear:
+            return math.inf
+        e = self.params.effects
+        rate = 0.0
+        for t in (temp, self.ambient + THERMAL_CHECK_RISE):
+            convection = self.conductance * (1.0 + e.convection_exponent) \
+                * fx.convection_factor(t, self.ambient, e)
+            radiation = 4.0 * e.emissivity * fx.STEFAN_BOLTZMANN * self.area * (
+                abs(t) + fx.KELVIN) ** 3
+            rate = max(rate, (convection + radiation) / self.heat_capacity)
+        return RK4_REAL_LIMIT / rate if rate > 0.0 else math.inf
