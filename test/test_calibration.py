@@ -193,7 +193,7 @@ def test_cli_calibrate_writes_a_params_file_the_simulator_accepts(tmp_path, caps
 def test_the_damping_bound_is_ten_times_critical_or_ten_times_the_start():
     # a 10 g weight on the free-stroke coil: k about 24 N/m, critical 2 sqrt(k m)
     from tca_ros.diagnosis.calibration import damping_bound, MAX_DAMPING_RATIO
-    from tca_ros.model.dynamics import critical_damping
+    from tca_ros.model.end_motion import critical_damping
     from tca_ros.model.params import GRAVITY, load_params
     params = load_params('free_stroke').with_values(**{
         'dynamics.mass': 0.01, 'dynamics.load': 0.01 * GRAVITY, 'dynamics.damping': 0.01})

@@ -4,7 +4,8 @@ import pytest
 
 from tca_ros.model.params import load_params
 from tca_ros.model.quasistatic import (
-    delayed_input, first_order_response, QuasiStaticUnsupported, simulate_quasistatic)
+    delayed_input, ExactHelixStatics, first_order_response, QuasiStaticUnsupported,
+    simulate_quasistatic, static_map)
 from tca_ros.model.simulation import simulate
 
 
@@ -88,3 +89,24 @@ def test_a_load_ramp_is_interpolated_between_load_levels():
     diff = full.displacement - fast.displacement
     assert np.ptp(full.displacement) > 10e-3
     assert np.sqrt(np.mean(diff ** 2)) < 5e-6 and np.abs(diff).max() < 40e-6
+
+
+class _OneAtATime:
+    """The rod statics without their vectorised solve: static_map's scalar loop."""
+
+    def __init__(self, statics):
+        self.equilibrium_elongation = statics.equilibrium_elongation
+
+
+@pytest.mark.parametrize('name, load', [('free_stroke', 0.1), ('free_stroke', 0.6),
+                                        ('self_coiled', 0.05)])
+def test_the_vectorised_rod_static_map_equals_the_scalar_one(name, load):
+    # one solve over all temperatures (the fits' hot path) gives the numbers of one
+    # solve per temperature, bit for bit, elongation and stiffness
+    statics = ExactHelixStatics(load_params(name))
+    temps = np.arange(10.0, 230.0, 0.7)
+    y, k = static_map(statics, load, temps)
+    y0, k0 = static_map(_OneAtATime(statics), load, temps)
+    assert np.array_equal(y, y0) and np.array_equal(k, k0)
+    assert np.all(np.diff(y) != 0.0)  # a map that moves, not a constant
+

@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 
 from tca_ros.model import fiber, moduli, thermal
+from tca_ros.model.params import load_params
 
 
 def test_thermal_constants_match_table_ii(free_stroke):
@@ -79,3 +80,16 @@ def test_section_uses_heated_radius_when_enabled(free_stroke):
     const = free_stroke.with_values(**{'moduli.constant': True})
     s_const = moduli.section_stiffness(160.0, 1.0, const)
     assert s_const.E == 1.2e9 and s_const.radius == 0.21e-3
+
+
+def test_section_stiffness_of_a_row_of_tensions_is_each_ones():
+    # the rod table solves a row of tensions at once: the same numbers as one by one,
+    # across the clipped range of eq. (11) and the modulus floor
+    p = load_params('free_stroke')
+    tensions = np.linspace(-0.5, 40.0, 37)
+    for temp in (25.0, 120.0, 240.0):
+        row = moduli.section_stiffness(temp, tensions, p)
+        for i, f in enumerate(tensions):
+            one = moduli.section_stiffness(temp, float(f), p)
+            assert (row.EI[i], row.GJ[i], row.GA[i], row.EA[i]) == (
+                one.EI, one.GJ, one.GA, one.EA)

@@ -9,6 +9,8 @@ floored (D3); the section uses the heated radius when switched on (D4).
 from dataclasses import dataclass
 import math
 
+import numpy as np
+
 from tca_ros.model.fiber import heated_fiber_radius
 
 
@@ -48,10 +50,13 @@ def shear_modulus_yarn(fiber_modulus, volume_fraction, bias_angle):
 def load_torsion_strain(tension, fiber, coil, moduli):
     """Return tau = F r_t cos(alpha*) / (G0 J) (1/m) of Eq. (11), clipped to its range.
 
-    ``tension`` is the axial force F (N, tensile positive) on the TCA.
+    ``tension`` is the axial force F (N, tensile positive) on the TCA, a float or an
+    ndarray (then so is the result).
     """
     polar = math.pi * fiber.radius ** 4 / 2.0
     tau = tension * fiber.radius * math.cos(coil.pitch_angle) / (moduli.shear_modulus * polar)
+    if isinstance(tau, np.ndarray):  # a row of tensions (the rod table)
+        return np.clip(tau, 0.0, moduli.max_torsion_strain)
     return min(max(tau, 0.0), moduli.max_torsion_strain)
 
 
@@ -73,7 +78,10 @@ def fiber_modulus(temp, tension, params):
     dtemp = temp - params.thermal.ambient_temperature
     lam = load_factor(load_torsion_strain(tension, params.fiber, params.coil, m), m)
     softening = m.fiber_softening * lam + params.effects.extra_softening
-    return max(m.fiber_modulus - softening * dtemp, m.fiber_modulus_floor * m.fiber_modulus)
+    modulus = m.fiber_modulus - softening * dtemp
+    if isinstance(modulus, np.ndarray):  # a row of tensions (the rod table)
+        return np.maximum(modulus, m.fiber_modulus_floor * m.fiber_modulus)
+    return max(modulus, m.fiber_modulus_floor * m.fiber_modulus)
 
 
 def moduli_at(temp, tension, params):
@@ -102,6 +110,8 @@ def section_stiffness(temp, tension, params):
     """Return the Section of Eq. (8) at temperature (degC) and tension (N).
 
     K_bt = diag(EI, EI, GJ), K_se = diag(GA, GA, EA), I = pi r^4 / 4, J = 2 I.
+    ``tension`` may be an ndarray: the stiffnesses are then arrays of its shape
+    (the moduli depend on F, Eq. (11)).
     """
     e, g = moduli_at(temp, tension, params)
     r = section_radius(temp, params)

@@ -168,20 +168,30 @@ def static_map(model, load, temperatures, stop=None, stiffness_every=4):
     """
     temps = np.asarray(temperatures, dtype=float)
     step = max(abs(load), 1e-3) * STIFFNESS_LOAD_STEP
-    y = np.empty(temps.size)
-    guess = None
-    solve = getattr(model, 'loaded_equilibrium', model.equilibrium_elongation)
-    for i, temp in enumerate(temps):
-        guess = solve(load, float(temp), guess=guess)
-        y[i] = guess
-    if not np.all(np.isfinite(y)):
-        raise ArithmeticError(f'static map: no equilibrium under load = {load:g} N')
     sub = np.unique(np.concatenate((np.arange(0, temps.size, stiffness_every),
                                     [temps.size - 1])))
-    k_sub = np.empty(sub.size)
-    for j, i in enumerate(sub):
-        up = solve(load + step, float(temps[i]), guess=y[i])
-        k_sub[j] = step / (up - y[i]) if up > y[i] else 1e12
+    many = getattr(model, 'equilibrium_elongations', None)  # one vectorised solve
+    if many is not None:
+        y = np.array(many(load, temps), dtype=float)
+        if not np.all(np.isfinite(y)):
+            raise ArithmeticError(f'static map: no equilibrium under load = {load:g} N')
+        up = np.asarray(many(load + step, temps[sub]), dtype=float)
+        with np.errstate(invalid='ignore'):
+            rising = up > y[sub]
+        k_sub = np.where(rising, step / np.where(rising, up - y[sub], 1.0), 1e12)
+    else:
+        y = np.empty(temps.size)
+        guess = None
+        solve = getattr(model, 'loaded_equilibrium', model.equilibrium_elongation)
+        for i, temp in enumerate(temps):
+            guess = solve(load, float(temp), guess=guess)
+            y[i] = guess
+        if not np.all(np.isfinite(y)):
+            raise ArithmeticError(f'static map: no equilibrium under load = {load:g} N')
+        k_sub = np.empty(sub.size)
+        for j, i in enumerate(sub):
+            up = solve(load + step, float(temps[i]), guess=y[i])
+            k_sub[j] = step / (up - y[i]) if up > y[i] else 1e12
     k = np.interp(temps, temps[sub], k_sub)
     if stop is not None:
         in_contact = y < stop
@@ -212,6 +222,14 @@ class ExactHelixStatics:
     def equilibrium_elongation(self, load, temperature, guess=None):
         """Return y (m) with f_rod(y, T) = load (N) at temperature (degC), no contact."""
         return float(helix_elongation(self.params, temperature, load))
+
+    def equilibrium_elongations(self, load, temperatures):
+        """Return y (m) per temperature (degC, array) under one load (N): one solve.
+
+        NaN where the exact helix fails (as :meth:`equilibrium_elongation`).
+        """
+        temps = np.asarray(temperatures, dtype=float)
+        return helix_elongation(self.params, temps, np.full(temps.shape, float(load)))
 
 
 def make_statics(params, model=None):

@@ -53,8 +53,8 @@ def helix_elongation(params, temperature, tension, rotation_locked=False):
     ----------
     params : TcaParams
         A helical TCA (``coil.shape == 'helix'``).
-    temperature : float
-        Fiber temperature T (degC).
+    temperature : float or ndarray
+        Fiber temperature T (degC); an array broadcasts with an array ``tension``.
     tension : float or ndarray
         Axial force F (N), tensile positive; the moduli are evaluated at F (Eq. (11)).
     rotation_locked : bool
@@ -79,8 +79,8 @@ def _helix_state(params, temperature, tension, rotation_locked=False):
     kappa, tau = helix_strain(coil.radius, coil.pitch_angle)
     untwist = unit_untwist(temperature, params.fiber, params.thermal.ambient_temperature)
     forces = np.atleast_1d(np.asarray(tension, dtype=float))
-    stiff = np.array([_section_vector(section_stiffness(temperature, float(f), params))
-                      for f in forces.ravel()]).T.reshape((4,) + forces.shape)
+    stiff = np.broadcast_arrays(*_section_vector(section_stiffness(temperature, forces,
+                                                                   params)))
     lock = math.hypot(kappa, tau) if rotation_locked else None
     eq = uniform_helix_equilibrium(forces, (kappa, tau + untwist), tuple(stiff),
                                    turn_rate_lock=lock)
@@ -275,12 +275,20 @@ def _solve_row(params, rotation_locked, temp, pieces, step):
     None when a solve fails or y(F) is not increasing: the table needs a regular,
     monotonic y(F) to invert. ``step`` (N) is the forward-difference step.
     """
-    row_y, row_dy = [], []
+    steps = []
     for f in pieces:
-        y = helix_elongation(params, temp, f, rotation_locked)
-        steps = np.full(f.size, step)
-        steps[-1] = -step  # stay inside the piece at its right end
-        dy = (helix_elongation(params, temp, f + steps, rotation_locked) - y) / steps
+        s = np.full(f.size, step)
+        s[-1] = -step  # stay inside the piece at its right end
+        steps.append(s)
+    # one vectorised solve for the row: every piece's tensions, then their stepped ones
+    tensions = np.concatenate(list(pieces) + [f + s for f, s in zip(pieces, steps)])
+    solved = helix_elongation(params, temp, tensions, rotation_locked)
+    half = solved.size // 2
+    bounds = np.cumsum([0] + [f.size for f in pieces])
+    row_y, row_dy = [], []
+    for a, b, s in zip(bounds[:-1], bounds[1:], steps):
+        y = solved[a:b]
+        dy = (solved[half + a:half + b] - y) / s
         if not (np.all(np.isfinite(y)) and np.all(dy > 0.0)):
             return None
         row_y.append(y)
