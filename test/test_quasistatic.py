@@ -109,4 +109,3 @@ def test_the_vectorised_rod_static_map_equals_the_scalar_one(name, load):
     y0, k0 = static_map(_OneAtATime(statics), load, temps)
     assert np.array_equal(y, y0) and np.array_equal(k, k0)
     assert np.all(np.diff(y) != 0.0)  # a map that moves, not a constant
-
