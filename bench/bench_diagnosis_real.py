@@ -250,6 +250,14 @@ def _diagnose_real(args, keep=False):
     return (row, r) if keep else row
 
 
+def timed_pool_map(function, cases, jobs):
+    """Return (results, wall seconds) of ``function`` over ``cases`` in ``jobs`` processes."""
+    start = time.perf_counter()
+    with multiprocessing.Pool(jobs) as pool:
+        rows = pool.map(function, cases, chunksize=1)
+    return rows, time.perf_counter() - start
+
+
 def real_records(directory, jobs=2):
     """Diagnose the real records: each on its own, then each power group together.
 
@@ -266,10 +274,7 @@ def real_records(directory, jobs=2):
         each = [([p], length.get(_group(p), 0.14), work) for p in paths]
         groups = [([p for p in paths if _group(p) == g], length[g], work)
                   for g in GROUP_LENGTHS if any(_group(p) == g for p in paths)]
-        start = time.perf_counter()
-        with multiprocessing.Pool(jobs) as pool:
-            rows = pool.map(_diagnose_real, each + groups, chunksize=1)
-        wall = time.perf_counter() - start
+        rows, wall = timed_pool_map(_diagnose_real, each + groups, jobs)
     print(f'\nreal records ({len(paths)} from {directory}; rod model, calibrated first; '
           f'{wall:.0f} s wall, {jobs} jobs): each alone, then each power group together')
     print(f'{"record":<38s} {"verdict":<12s} {"named":<22s} {"helpful":<22s} '
