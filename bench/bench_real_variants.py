@@ -10,7 +10,8 @@ and logger may produce that these files do not show:
 - ``analog sensor``: white noise (20 um), AR(1) noise (30 um, 2 s) and a linear
   drift of 0.3 mm over the record on top (a laser or potentiometer, not an encoder);
 - ``description 30 g``: the record's header says 30 g where the muscle carried 10 g
-  (a wrong description: the calibration must absorb or refuse it, not crash);
+  (the header's mass is the moving mass of eq. (18); the load column still carries
+  the 10 g weight): a wrong description that must not crash or change the verdict;
 - ``cst``: diagnosed with the cst model instead of the rod model.
 
 Printed: verdict, what is named and helpful, the held-out RMSE, CPU time; an
