@@ -37,11 +37,26 @@ def test_csv_round_trip(tmp_path):
     write_csv_record(rec, path, comments=['synthetic'])
     back = read_record(path)
     np.testing.assert_allclose(back.time, t, atol=1e-4)  # written with 4 decimals
-    np.testing.assert_allclose(back.displacement, rec.displacement, rtol=1e-4, atol=1e-12)
+    np.testing.assert_allclose(back.displacement, rec.displacement, rtol=1e-9, atol=1e-15)
     np.testing.assert_allclose(back.temperature, rec.temperature, atol=1e-3)
     assert back.resistance is None
     assert back.meta['tca'] == 'free_stroke' and back.mass == pytest.approx(0.03)
     assert back.sample_rate == pytest.approx(20.0, rel=1e-6)
+
+
+def test_csv_round_trip_keeps_a_laser_sensors_resolution(tmp_path):
+    # a 50 mm stroke read to 10 nm: the written record keeps every step (the former
+    # 5 significant digits rounded it to 0.5 um)
+    t = np.arange(400) / 100.0
+    x = 0.05 + 1e-8 * np.round(1e6 * np.sin(t))
+    rec = Record(time=t, power=np.full_like(t, 1.0), load=np.full_like(t, 0.1),
+                 displacement=x, meta={'tca': 'free_stroke', 'mass_kg': 0.01,
+                                       'sample_rate_hz': 100.0})
+    path = str(tmp_path / 'laser.csv')
+    write_csv_record(rec, path)
+    back = read_record(path).displacement
+    assert np.max(np.abs(back - x)) < 1e-10
+    assert np.unique(np.round(np.diff(back) / 1e-8)).size > 50
 
 
 @pytest.mark.parametrize('mutate, row, column', [
