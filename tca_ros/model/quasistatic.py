@@ -171,27 +171,24 @@ def static_map(model, load, temperatures, stop=None, stiffness_every=4):
     sub = np.unique(np.concatenate((np.arange(0, temps.size, stiffness_every),
                                     [temps.size - 1])))
     many = getattr(model, 'equilibrium_elongations', None)  # one vectorised solve
+    solve = getattr(model, 'loaded_equilibrium', model.equilibrium_elongation)
     if many is not None:
         y = np.array(many(load, temps), dtype=float)
-        if not np.all(np.isfinite(y)):
-            raise ArithmeticError(f'static map: no equilibrium under load = {load:g} N')
-        up = np.asarray(many(load + step, temps[sub]), dtype=float)
-        with np.errstate(invalid='ignore'):
-            rising = up > y[sub]
-        k_sub = np.where(rising, step / np.where(rising, up - y[sub], 1.0), 1e12)
     else:
         y = np.empty(temps.size)
         guess = None
-        solve = getattr(model, 'loaded_equilibrium', model.equilibrium_elongation)
         for i, temp in enumerate(temps):
             guess = solve(load, float(temp), guess=guess)
             y[i] = guess
-        if not np.all(np.isfinite(y)):
-            raise ArithmeticError(f'static map: no equilibrium under load = {load:g} N')
-        k_sub = np.empty(sub.size)
-        for j, i in enumerate(sub):
-            up = solve(load + step, float(temps[i]), guess=y[i])
-            k_sub[j] = step / (up - y[i]) if up > y[i] else 1e12
+    if not np.all(np.isfinite(y)):
+        raise ArithmeticError(f'static map: no equilibrium under load = {load:g} N')
+    if many is not None:
+        up = np.asarray(many(load + step, temps[sub]), dtype=float)
+    else:
+        up = np.array([solve(load + step, float(temps[i]), guess=y[i]) for i in sub])
+    with np.errstate(invalid='ignore'):
+        rising = up > y[sub]
+    k_sub = np.where(rising, step / np.where(rising, up - y[sub], 1.0), 1e12)
     k = np.interp(temps, temps[sub], k_sub)
     if stop is not None:
         in_contact = y < stop
