@@ -52,7 +52,7 @@ import math
 
 from tca_ros.model import effects as fx
 from tca_ros.model.dynamics import MAX_SUBSTEPS, STABILITY_RECHECK
-from tca_ros.model.dynamics import STABILITY_SAFETY, StabilityError, TcaSimulator
+from tca_ros.model.dynamics import StabilityError, substep_count, TcaSimulator
 from tca_ros.model.end_motion import central_difference_limit, central_difference_step
 from tca_ros.model.kinetostatic_models import make_kinetostatic_model
 from tca_ros.model.kinetostatics import KinetostaticModel
@@ -325,10 +325,7 @@ class AntagonisticPair:
 
     def substeps(self):
         """Return the equal substeps one dt needs (joint, thermal and creep limits)."""
-        limit = STABILITY_SAFETY * self.stability_limit()
-        n = 1 if limit == math.inf else (
-            MAX_SUBSTEPS + 1 if not limit > 0.0 or self.dt / limit > MAX_SUBSTEPS
-            else max(1, math.ceil(self.dt / limit)))
+        n = substep_count(self.dt, self.stability_limit())
         return max(n, self.agonist.substeps(), self.antagonist.substeps())
 
     def check_step(self):
