@@ -82,7 +82,7 @@ def cmd_calibrate(args, out):
     header = ['Calibrated by `tca_sim calibrate` on:'] + [f'  {p}' for p in args.records]
     header += [f'start config: {config}; model {cal.model}; supply {supply}']
     for est in cal.report.estimates.values():
-        state = 'fitted' if est.determined else 'NOT determined, prior kept'
+        state = 'fitted' if est.determined else 'NOT determined: mostly its prior'
         header.append(f'{est.name} = {est.value:.5g} +- {est.stderr:.2g} {est.unit} ({state})')
     dump_params(cal.params, args.out, header='\n'.join(header))
     out.write(f'wrote {args.out}\n')

@@ -392,7 +392,7 @@ def format_summary(cal):
              f'{"parameter":<28s}{"start":>12s}{"calibrated":>13s}{"std err":>11s}  unit',
              ]
     for est in cal.report.estimates.values():
-        flag = '' if est.determined else '  (not determined: held at prior)'
+        flag = '' if est.determined else '  (not determined: mostly its prior)'
         lines.append(f'{est.name:<28s}{est.prior:>12.4g}{est.value:>13.4g}'
                      f'{est.stderr:>11.2g}  {est.unit}{flag}')
     if cal.nrmse:

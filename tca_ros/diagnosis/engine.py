@@ -20,11 +20,11 @@ errors and an identifiability check (docs/calibration.md):
 * Standard errors come from the Gauss-Newton covariance of the stacked
   residual. A parameter whose posterior spread is more than IDENTIFIABLE_RATIO
   (1/sqrt(2)) of its prior spread, i.e. about which the records say less than its
-  prior does, is "not determined by the records": the least determined one
-  is fixed at its prior, the others are refitted without it, and so on until
-  every fitted parameter is determined (one at a time, because strongly
-  correlated parameters are each uncertain while one of them fixed can
-  determine the rest).
+  prior does, is reported "not determined by the records"; its value stays the
+  MAP estimate, which the prior holds near the prior value. (Until 2026-12-02 the
+  least determined parameter was reset to its prior and the rest refitted, one at
+  a time. That threshold decision made the result jump with data changes of
+  0.5 um on a real record, docs/calibration.md "Undetermined parameters".)
 
 ``Objective`` is what a use of the engine supplies: the records, the channels
 and a ``predict(values, record)`` function.
@@ -192,53 +192,27 @@ def fit(objective, parameters, fixed=None, initial_scale=None, scale_floor=None,
     scale_floor = dict(scale_floor or {})
     free = list(parameters)
     scale = dict(initial_scale or {c: 1.0 for c in objective.channels})
-    undetermined = {}
     factor, n_eff = 1.0, float(objective.size())
     start = start or {}
     z = np.array([p.to_fit(start.get(p.name, p.prior)) for p in free])
-    sol = None
-    passes = REWEIGHT_PASSES
-    settled = None
-    while True:
-        for _ in range(passes):
-            sol = _solve(objective, free, fixed, z, scale, factor, max_nfev, progress)
-            z = sol.x
-            raw = objective.raw_residuals(_values(free, z, fixed))
-            if raw is None:
-                break
-            scale = _channel_scale(raw, objective, scale_floor)
-            factor, n_eff = _autocorrelation_factor(raw, objective)
-        passes = 1
-        # scipy's trf returns a bound-scaled Jacobian: take a plain one for the covariance
-        cov = _covariance(_jacobian(_residual_function(objective, free, fixed, scale, factor,
-                                                       progress), z, free))
-        ratios = [math.sqrt(max(cov[i, i], 0.0)) / p.spread for i, p in enumerate(free)]
-        worst = int(np.argmax(ratios))
-        if ratios[worst] <= IDENTIFIABLE_RATIO:
-            settled = cov, raw  # at the final values, with the final scales
+    sol, raw = None, None
+    for _ in range(REWEIGHT_PASSES):
+        sol = _solve(objective, free, fixed, z, scale, factor, max_nfev, progress)
+        z = sol.x
+        raw = objective.raw_residuals(_values(free, z, fixed))
+        if raw is None:
             break
-        # the least determined parameter goes back to its prior; the rest are refitted
-        weak = free[worst]
-        undetermined[weak.name] = ratios[worst]
-        fixed[weak.name] = weak.prior
-        keep = [i for i in range(len(free)) if i != worst]
-        free = [free[i] for i in keep]
-        z = z[keep]
-        if not free:
-            break
+        scale = _channel_scale(raw, objective, scale_floor)
+        factor, n_eff = _autocorrelation_factor(raw, objective)
     values = _values(free, z, fixed)
-    # standard errors from the posterior of every parameter (held ones with their
-    # prior), so a value fitted while another was held at an uncertain prior
-    # carries that uncertainty too; with none held, that is the last check's
-    user_fixed = {k: v for k, v in fixed.items() if k not in undetermined}
-    everything = [p for p in parameters if p.name not in user_fixed]
-    if settled is not None and not undetermined:
-        cov, raw = settled
-    else:
-        raw = objective.raw_residuals(values)
-        z_all = np.array([p.to_fit(values[p.name]) for p in everything])
-        cov = _covariance(_jacobian(_residual_function(
-            objective, everything, user_fixed, scale, factor, progress), z_all, everything))
+    everything = free
+    # scipy's trf returns a bound-scaled Jacobian: take a plain one for the covariance,
+    # at the final values with the final scales
+    cov = _covariance(_jacobian(_residual_function(objective, free, fixed, scale, factor,
+                                                   progress), z, free)) if free else \
+        np.zeros((0, 0))
+    ratios = {p.name: math.sqrt(max(cov[i, i], 0.0)) / p.spread for i, p in enumerate(free)}
+    undetermined = {k: r for k, r in ratios.items() if not r <= IDENTIFIABLE_RATIO}
     estimates = {}
     for i, p in enumerate(everything):
         sd = math.sqrt(max(cov[i, i], 0.0))
@@ -248,7 +222,7 @@ def fit(objective, parameters, fixed=None, initial_scale=None, scale_floor=None,
             estimates[p.name] = Estimate(
                 p.name, p.unit, value, stderr, p.prior, False,
                 f'not determined by the records (posterior/prior spread '
-                f'{undetermined[p.name]:.2f}); held at its prior')
+                f'{undetermined[p.name]:.2f}): the value is mostly its prior')
         else:
             estimates[p.name] = Estimate(p.name, p.unit, value, stderr, p.prior, True)
     estimates = {p.name: estimates[p.name] for p in everything}
