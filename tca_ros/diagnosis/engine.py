@@ -24,7 +24,7 @@ errors and an identifiability check (docs/calibration.md):
   MAP estimate, which the prior holds near the prior value. (Until 2026-12-02 the
   least determined parameter was reset to its prior and the rest refitted, one at
   a time. That threshold decision made the result jump with data changes of
-  0.5 um on a real record, docs/calibration.md "Undetermined parameters".)
+  0.5 um on a real record: docs/calibration.md, "Identifiability".)
 
 ``Objective`` is what a use of the engine supplies: the records, the channels
 and a ``predict(values, record)`` function.
@@ -205,7 +205,6 @@ def fit(objective, parameters, fixed=None, initial_scale=None, scale_floor=None,
         scale = _channel_scale(raw, objective, scale_floor)
         factor, n_eff = _autocorrelation_factor(raw, objective)
     values = _values(free, z, fixed)
-    everything = free
     # scipy's trf returns a bound-scaled Jacobian: take a plain one for the covariance,
     # at the final values with the final scales
     cov = _covariance(_jacobian(_residual_function(objective, free, fixed, scale, factor,
@@ -214,7 +213,7 @@ def fit(objective, parameters, fixed=None, initial_scale=None, scale_floor=None,
     ratios = {p.name: math.sqrt(max(cov[i, i], 0.0)) / p.spread for i, p in enumerate(free)}
     undetermined = {k: r for k, r in ratios.items() if not r <= IDENTIFIABLE_RATIO}
     estimates = {}
-    for i, p in enumerate(everything):
+    for i, p in enumerate(free):
         sd = math.sqrt(max(cov[i, i], 0.0))
         value = values[p.name]
         stderr = value * sd if p.log else sd
@@ -225,7 +224,6 @@ def fit(objective, parameters, fixed=None, initial_scale=None, scale_floor=None,
                 f'{undetermined[p.name]:.2f}): the value is mostly its prior')
         else:
             estimates[p.name] = Estimate(p.name, p.unit, value, stderr, p.prior, True)
-    estimates = {p.name: estimates[p.name] for p in everything}
     record_rmse = ([{c: float(np.sqrt(np.mean(r[c] ** 2))) for c in objective.channels}
                     for r in raw] if raw is not None else [])
     sd = np.sqrt(np.clip(np.diag(cov), 1e-300, None))
