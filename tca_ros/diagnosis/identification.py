@@ -222,6 +222,8 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
                      f'{", ".join(ABSORBED[a] for a in absorbed)} is the same parameter)')
     untestable = [c.name for c in candidates if not c.starts]
     nominal_stats = channel_stats(problems, nominals)
+    channels = problem.channels
+    nominal_rmse = pooled_heldout_rmse(problems, nominals, channels)
     effects, values, rounds = [], dict(start_values), []
     try:
         # an effect may show in the training part only (creep settled before the split)
@@ -233,7 +235,8 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
         values = values if effects else dict(start_values)  # not the round-one polish
         extendeds = [p.simulate_full(values) for p in problems] if effects else nominals
         added = len([k for k in values if k not in start_values])
-        if effects and not _beats_nominal(problems, nominals, extendeds, added):
+        if effects and not _beats_nominal(problems, nominals, extendeds, added,
+                                          nominal_rmse):
             # each effect was accepted against the round's base (the nominal with its
             # calibration refitted); the whole extension must beat the calibrated
             # nominal itself by the search's own rule, or it is no improvement to report
@@ -247,8 +250,6 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
                              f'({str(exc).splitlines()[0]})') from None
     finally:
         bar.close()
-    channels = problem.channels
-    nominal_rmse = pooled_heldout_rmse(problems, nominals, channels)
     extended_rmse = pooled_heldout_rmse(problems, extendeds, channels)
     extended_stats = channel_stats(problems, extendeds,
                                    [p.parameters(values) for p in problems])
@@ -275,21 +276,21 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
     return result
 
 
-def _beats_nominal(problems, nominals, extendeds, added):
+def _beats_nominal(problems, nominals, extendeds, added, nominal_rmse):
     """Return True when the extension passes the search's acceptance against the nominal.
 
     As each candidate is accepted (search._greedy): a positive penalised held-out
     gain under the verdict's noise model (verdict.heldout_gain_over) and a
     held-out RMS gain of at least MIN_GAIN_PERCENT, channels weighted by their
     noise sigma, here on the record-rate simulations of both whole models.
+    ``nominal_rmse``: the nominal's pooled held-out RMSE ({channel: m or K}).
     """
     if heldout_gain_over(problems, nominals, extendeds, added) <= 0.0:
         return False
     sigma, channels = problems[0].sigma, problems[0].channels
-    before = pooled_heldout_rmse(problems, nominals, channels)
     after = pooled_heldout_rmse(problems, extendeds, channels)
     score = [math.sqrt(sum((rmse[c] / sigma[c]) ** 2 for c in channels))
-             for rmse in (before, after)]
+             for rmse in (nominal_rmse, after)]
     return score[1] <= (1.0 - MIN_GAIN_PERCENT / 100.0) * score[0]
 
 
