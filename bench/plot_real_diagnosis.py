@@ -20,6 +20,8 @@ import matplotlib
 matplotlib.use('Agg')
 import matplotlib.pyplot as plt  # noqa: E402,I100
 
+from tca_ros.diagnosis.plots import shade_heldout  # noqa: E402,I100
+
 DEFAULT = ('encoder_0.8mm_1W_encoder_4.csv', 'encoder_0.8mm_1W_encoder_3.csv')
 
 
@@ -49,7 +51,7 @@ def main(argv=None):
             extended = '+'.join(result.effects or result.helpful) or 'nothing added'
             ax.plot(r.time, result.extended.displacement * 1e3, 'C0--',
                     label=f'+ {extended} ({row["extended"] * 1e3:.2f} mm)')
-            ax.axvline(result.split_time, color='k', ls=':', lw=0.8)
+            shade_heldout(ax, result.heldout_spans)
             ax.set_title(f'{os.path.basename(path)}: {result.verdict}'
                          + (f', named {"+".join(result.effects)}' if result.effects else ''),
                          fontsize=10)
@@ -59,7 +61,7 @@ def main(argv=None):
                   f'{result.effects}; helpful {result.helpful}; held-out RMSE '
                   f'{row["nominal"] * 1e3:.2f} -> {row["extended"] * 1e3:.2f} mm; '
                   f'{row["values"]}; {row["cpu"]:.0f} s CPU')
-    axes[-1, 0].set_xlabel('time (s); held out right of the dotted line')
+    axes[-1, 0].set_xlabel('time (s); held out where shaded')
     fig.tight_layout()
     os.makedirs(args.out, exist_ok=True)
     out = os.path.join(args.out, 'fig_real_diagnosis.png')

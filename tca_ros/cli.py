@@ -374,7 +374,7 @@ def cmd_diagnose(args, out):
     result = diagnose(data, args.config, report_dir=args.report, model=args.model,
                       progress=not args.quiet, fit_rate=fit_rate,
                       calibrate_first=not args.no_calibrate, calibrated=args.calibrated,
-                      supply=args.supply)
+                      supply=args.supply, validation=args.validation)
     for name, rmse in (('nominal', result.nominal_rmse), ('extended', result.extended_rmse)):
         for channel, value in rmse.items():
             if not math.isfinite(value):
@@ -462,6 +462,11 @@ def build_parser():
     sp.add_argument('--supply', choices=('power', 'voltage'), default='power',
                     help='the power column: delivered power, or the nominal power of a '
                          'constant-voltage supply set at R0')
+    sp.add_argument('--validation', choices=('auto', 'blocks', 'tail'), default='auto',
+                    help='held-out part: 3 of 10 blocks of each record, the last one and '
+                         'two inside (a one-step record is judged on heating and '
+                         'cooling), or its last 30 %%; auto: the tail when its training '
+                         'part holds two coolings, else blocks (docs/diagnosis.md)')
     sp.add_argument('--report', default=None,
                     help='directory (DIR) for report.md, PNG plots, diagnosis.json and '
                          'the extended params YAML')

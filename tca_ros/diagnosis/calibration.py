@@ -190,9 +190,13 @@ def match_loaded_length(params, length, load, model=None):
     return params
 
 
-def peak_stroke(record):
-    """Return the record's peak contraction (m), robust to single-sample spikes."""
-    return float(max(np.percentile(record.displacement, PEAK_PERCENTILE), 1e-6))
+def peak_stroke(record, mask=None):
+    """Return the record's peak contraction (m), robust to single-sample spikes.
+
+    ``mask``: the samples considered (boolean array; default all).
+    """
+    x = record.displacement if mask is None else record.displacement[mask]
+    return float(max(np.percentile(x, PEAK_PERCENTILE), 1e-6))
 
 
 def normalised_rmse(record, displacement):
@@ -312,11 +316,14 @@ def full_nrmse(params, records, model, supply='power'):
 
 
 def calibrate(records, params, model=None, fit=None, progress=False, max_nfev=40,
-              check=True, supply='power'):
+              check=True, supply='power', masks=None):
     """Calibrate ``params`` (start TcaParams) jointly on ``records``; return a Calibration.
 
     ``fit``: names to fit (default DEFAULT_FIT, restricted to what the records
-    can inform); ``check``: score start and result with the full dynamics (18).
+    can inform); ``check``: score start and result with the full dynamics (18);
+    ``masks``: per record a boolean array of the samples fitted (default all;
+    the records are simulated whole either way, e.g. a diagnosis's training
+    blocks).
     """
     if not records:
         raise CalibrationError('records: none given')
@@ -341,11 +348,14 @@ def calibrate(records, params, model=None, fit=None, progress=False, max_nfev=40
     if not nominal:
         notes.append('power varies beyond on/off: taken as measured, '
                      'delivered_power_ratio not fitted')
-    peaks = [peak_stroke(r) for r in records]
+    by_record = None if masks is None else {id(r): np.asarray(m, bool)
+                                            for r, m in zip(records, masks)}
+    selected = None if masks is None else (lambda r: by_record[id(r)])
+    peaks = [peak_stroke(r, None if masks is None else by_record[id(r)]) for r in records]
     median_peak = float(np.median(peaks))
     weights = [p / median_peak for p in peaks]
     objective = engine.Objective(records, channels, predictor(start, model, channels, supply),
-                                 weights=weights)
+                                 weights=weights, mask=selected)
     bar = Progress(progress, total=(len(parameters) + 1) * 24)
     initial = {'displacement': 0.05 * median_peak, 'temperature': 2.0,
                'resistance': 0.01 * r0}
@@ -364,7 +374,7 @@ def calibrate(records, params, model=None, fit=None, progress=False, max_nfev=40
     if corrections is not None:
         objective = engine.Objective(records, channels,
                                      predictor(start, model, channels, supply, corrections),
-                                     weights=weights)
+                                     weights=weights, mask=selected)
         first_nfev = report.nfev
         report = engine.fit(objective, parameters, start=report.values, **options)
         report.nfev += first_nfev

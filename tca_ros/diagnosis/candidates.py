@@ -179,3 +179,28 @@ def absorbed_candidates(candidates, recalibration):
     refitted = {s.name for s in recalibration}
     absorbed = [c.name for c in candidates if ABSORBED.get(c.name) in refitted]
     return [c for c in candidates if c.name not in absorbed], absorbed
+
+
+BOUND_SHARE = 0.005  # a fitted value within this share of its range from a bound is at it
+
+
+def parameters_at_bounds(effects, values, candidates):
+    """Return [(dotted name, value, bound)] of the found effects' parameters at a bound.
+
+    A parameter fitted to the end of its physical range (a 15 K ambient offset,
+    a 3 s sensor lag) says the data ask for more of it than it can be: the
+    effect then stands in for something else and is not named as the cause.
+    The lower end counts only where it is not zero (zero is the effect's absence).
+    """
+    spaces = {s.name: s for c in candidates if c.name in effects for s in c.spaces}
+    out = []
+    for name, space in spaces.items():
+        value = values.get(name)
+        if value is None:
+            continue
+        z = space.to_unit(value)
+        if z >= 1.0 - BOUND_SHARE:
+            out.append((name, value, space.high))
+        elif z <= BOUND_SHARE and space.low != 0.0:
+            out.append((name, value, space.low))
+    return out

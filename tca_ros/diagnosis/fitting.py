@@ -2,9 +2,9 @@
 
 Method (docs/diagnosis.md)
 --------------------------
-1. The record is split in time: the first ``train_fraction`` trains, the rest is
-   held out. Both parts run in one simulation (the held-out part starts from the
-   state the training part ends in).
+1. The record is split into training and held-out parts (holdout.py: blocks spread
+   over the record by default, or a tail). Both run in one simulation from the
+   inputs, so a held-out part starts from the state the simulation carries into it.
 2. Fits run on a coarse grid (``fit_rate`` Hz, inputs averaged over each coarse
    interval, which preserves the heat input). The discretisation error of the
    coarse grid is removed by defect correction: the difference between the
@@ -27,6 +27,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from tca_ros.diagnosis.fit_result import CandidateScore, FitResult, standard_errors
+from tca_ros.diagnosis.holdout import DEFAULT_VALIDATION, make_holdout, mask_runs
 from tca_ros.diagnosis.noise import quantisation_sigma
 from tca_ros.diagnosis.progress import Progress
 from tca_ros.diagnosis.residuals import lag_one_autocorrelation, noise_sigma
@@ -37,7 +38,7 @@ from tca_ros.model.simulation import simulate
 FAILED_RESIDUAL = 1e3  # noise units per sample returned when a simulation fails
 DISPLACEMENT_NOISE_FLOOR = 1e-7  # m, noise floor for noise-free data
 TEMPERATURE_NOISE_FLOOR = 1e-3  # K
-TRAIN_FRACTION = 0.7  # leading share of the record used for fitting
+TRAIN_FRACTION = 0.7  # share of the record used for fitting (the rest is held out)
 FIT_RATE_HZ = 10.0  # coarse grid of the fits; defect correction restores accuracy
 MIN_PHYSICS_RATE_HZ = 200.0  # record-rate simulations step at least this fast (Hz)
 MAX_NFEV = 8  # least-squares iterations (function evaluations, Jacobian excluded)
@@ -72,7 +73,9 @@ class FitProblem:
     fit_rate : float
         Coarse-grid rate (Hz) of the fits.
     train_fraction : float
-        Leading share of the record used for fitting.
+        Share of the record used for fitting; the rest is held out.
+    validation : str
+        Layout of the held-out part: 'blocks' or 'tail' (holdout.py).
     progress : Progress, optional
         Counts simulations.
     reduced : bool
@@ -82,7 +85,8 @@ class FitProblem:
     """
 
     def __init__(self, record, params, model='cst', physics_rate=None, fit_rate=FIT_RATE_HZ,
-                 train_fraction=TRAIN_FRACTION, progress=None, reduced=True):
+                 train_fraction=TRAIN_FRACTION, progress=None, reduced=True,
+                 validation=DEFAULT_VALIDATION):
         self.record = record
         self.params = params
         self.model = model
@@ -98,9 +102,17 @@ class FitProblem:
         self.coarse_power = _block_mean(record.power, self.k, self.m)
         self.coarse_load = _block_mean(record.load, self.k, self.m)
         self.coarse_load[0] = record.load[0]  # the initial equilibrium uses load[0]
-        split_time = record.time[0] + train_fraction * record.duration
-        self.split = int(np.searchsorted(self.coarse_time, split_time))  # coarse index
-        self.full_split = int(np.searchsorted(record.time, split_time))
+        self.holdout = make_holdout(train_fraction, validation)
+        held = self.holdout.heldout_mask(self.coarse_time, record.duration)
+        self.train_index = np.flatnonzero(~held)  # coarse indices of the training part
+        self.heldout_index = np.flatnonzero(held)
+        if self.train_index.size < 2 or self.heldout_index.size < 2:
+            raise ValueError(f'{record.source}: {n} samples cannot be split into training '
+                             'and held-out parts on the fit grid')
+        self.split = int(self.train_index[-1]) + 1  # the training simulation's end
+        self.coarse_runs = mask_runs(held)  # (i0, i1) coarse ranges held out
+        self.full_runs = self.holdout.runs(record.time)  # the same at the record's rate
+        self.full_split = self.full_runs[0][0]  # first held-out sample (record rate)
         self.channels = ['displacement']
         # white noise from second differences, at least the rounding of a quantised
         # sensor (an encoder's differences are mostly 0: their MAD would be 0)
@@ -231,54 +243,75 @@ class FitProblem:
         return full
 
     # -- residuals ------------------------------------------------------------------
-    def normalised_residuals(self, prediction, start, end):
-        """Return the noise-normalised residuals (-) of all channels on [start, end)."""
-        parts = [(self.coarse_measured[c][start:end] - prediction[c][start:end])
+    def normalised_residuals(self, prediction, index):
+        """Return the noise-normalised residuals (-) of all channels at coarse ``index``."""
+        parts = [(self.coarse_measured[c][index] - prediction[c][index])
                  / self.sigma[c] for c in self.channels]
         return np.concatenate(parts)
 
     def train_residuals(self, values):
         """Return the training residual vector (-) for ``values``."""
-        n = self.split * len(self.channels)
+        n = self.train_index.size * len(self.channels)
         prediction = self.simulate_coarse(values, self.split)
         if prediction is None:
             return np.full(n, FAILED_RESIDUAL)
-        return self.normalised_residuals(prediction, 0, self.split)
+        return self.normalised_residuals(prediction, self.train_index)
 
     def heldout(self, values):
         """Return (cost, {channel: RMSE}, n, lag-1 autocorrelation) on the held-out part."""
         prediction = self.simulate_coarse(values)
-        n = (self.m - self.split) * len(self.channels)
+        n = self.heldout_index.size * len(self.channels)
         if prediction is None:
             return FAILED_RESIDUAL ** 2 * n, {c: math.inf for c in self.channels}, n, 1.0
         rmse, rhos = {}, []
         for c in self.channels:
-            res = self.coarse_measured[c][self.split:] - prediction[c][self.split:]
-            rmse[c] = float(np.sqrt(np.mean(res ** 2)))
-            rhos.append(lag_one_autocorrelation(res))
-        r = self.normalised_residuals(prediction, self.split, self.m)
+            res = self.coarse_measured[c] - prediction[c]
+            rmse[c] = float(np.sqrt(np.mean(res[self.heldout_index] ** 2)))
+            rhos.extend(lag_one_autocorrelation(res[a:b]) for a, b in self.coarse_runs)
+        r = self.normalised_residuals(prediction, self.heldout_index)
         return float(r @ r), rmse, n, float(np.mean(rhos))
 
     def heldout_residuals(self, values):
-        """Return [{channel: measured - predicted}] on the coarse held-out part, or None.
+        """Return [{channel: measured - predicted}] on the coarse held-out runs, or None.
 
-        One dict per record (channel units); rates in ``coarse_rates``.
+        One dict per contiguous held-out run (channel units); their rates are in
+        ``coarse_rates``, their starts in ``heldout_starts``, the record each
+        belongs to in ``heldout_groups``.
         """
         prediction = self.simulate_coarse(values)
         if prediction is None:
             return None
-        return [{c: self.coarse_measured[c][self.split:] - prediction[c][self.split:]
-                 for c in self.channels}]
+        return [{c: self.coarse_measured[c][a:b] - prediction[c][a:b] for c in self.channels}
+                for a, b in self.coarse_runs]
 
     @property
     def coarse_rates(self):
-        """Return [coarse-grid rate (Hz)] per record."""
-        return [self.sample_rate / self.k]
+        """Return [coarse-grid rate (Hz)] per held-out run."""
+        return [self.sample_rate / self.k] * len(self.coarse_runs)
 
     @property
     def heldout_starts(self):
-        """Return [time (s) of the coarse held-out part's start since the record's zero]."""
-        return [float(self.coarse_time[min(self.split, self.m - 1)] - self.record.time[0])]
+        """Return [time (s) of each coarse held-out run's start since the record's zero]."""
+        return [float(self.coarse_time[a] - self.record.time[0]) for a, _ in self.coarse_runs]
+
+    @property
+    def heldout_groups(self):
+        """Return [key of the record] per held-out run: runs of one record share a drift."""
+        return [id(self)] * len(self.coarse_runs)
+
+    def full_heldout(self, values):
+        """Return [array] of ``values`` (a record-rate array) in each held-out run."""
+        return [values[a:b] for a, b in self.full_runs]
+
+    @property
+    def full_heldout_index(self):
+        """Return the record-rate indices of the held-out part (all runs)."""
+        return np.concatenate([np.arange(a, b) for a, b in self.full_runs])
+
+    @property
+    def full_train_mask(self):
+        """Return the record-rate boolean mask of the training part."""
+        return self.holdout.train_mask(self.record.time)
 
     # -- fitting --------------------------------------------------------------------
     def screen(self, candidate):

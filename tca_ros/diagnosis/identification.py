@@ -11,14 +11,16 @@ import time as wallclock
 import numpy as np
 
 from tca_ros.diagnosis.candidates import ABSORBED, absorbed_candidates, build_candidates, \
-    recalibration_spaces
+    parameters_at_bounds, recalibration_spaces
 from tca_ros.diagnosis.data import DataError, read_record, record_config
 from tca_ros.diagnosis.fitting import FitProblem
+from tca_ros.diagnosis.holdout import AUTO, choose_validation, DEFAULT_VALIDATION
 from tca_ros.diagnosis.progress import Progress
-from tca_ros.diagnosis.record_ops import decimated, leading_part
+from tca_ros.diagnosis.record_ops import decimated
 from tca_ros.diagnosis.search import MIN_GAIN_PERCENT, search_effects
 from tca_ros.diagnosis.verdict import channel_stats, decide_verdict, gain, \
     heldout_gain_over, needs_explaining, NOTHING_TO_EXPLAIN, pooled_heldout_rmse
+from tca_ros.model.params import SPECS
 
 VERDICTS = ('explained', 'adequate', 'unexplained')
 #: Rough count of simulations of a diagnosis, for the progress bar.
@@ -55,7 +57,7 @@ class DiagnosisResult:
     nominal_stats: dict  # channel -> ResidualStats on the held-out part
     extended_stats: dict
     sigma: dict  # channel -> sensor noise estimate (m, K)
-    split_time: float  # s, start of the held-out part
+    split_time: float  # s, start of the first held-out run
     verdict: str
     explanation: str
     elapsed: float  # s of wall time
@@ -69,6 +71,8 @@ class DiagnosisResult:
     calibration: object = None  # Calibration of the nominal parameters, or None
     notes: list = field(default_factory=list)
     records: list = field(default_factory=list)  # paths diagnosed together
+    heldout_spans: list = field(default_factory=list)  # [(start, end)] s held out (1st record)
+    validation: str = DEFAULT_VALIDATION  # layout of the held-out part (holdout.py)
 
     @property
     def success(self):
@@ -118,7 +122,7 @@ class DiagnosisResult:
 
 def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
              physics_rate=None, fit_rate=None, train_fraction=None, calibrate_first=True,
-             calibrated=None, supply='power'):
+             calibrated=None, supply='power', validation=AUTO):
     """Diagnose a measured record against the nominal model; return a DiagnosisResult.
 
     Parameters
@@ -138,7 +142,13 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
     physics_rate, fit_rate : float, optional
         Physics rate (Hz, default max(200 Hz, sample rate)) and fit-grid rate (Hz).
     train_fraction : float, optional
-        Leading share of the record used for fitting (default 0.7).
+        Share of the record used for fitting (default 0.7); the rest is held out.
+    validation : str
+        Layout of the held-out part (holdout.py): 'blocks' (three blocks of ten,
+        the last one and two inside, so a one-step record trains and is judged on
+        heating and cooling alike), 'tail' (the last part), or 'auto' (default:
+        'tail' when a tail's training part holds two coolings in every record,
+        else 'blocks'; holdout.choose_validation).
     calibrate_first : bool
         Calibrate the nominal parameters a maker cannot measure on the training
         part (calibration.py) before searching effects, so that effects are
@@ -176,6 +186,7 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
     base = load_params(nominal_source, model=model)
     params_of = [_record_nominal(base, r) for r in records]
     fraction = train_fraction or fitting.TRAIN_FRACTION
+    validation = choose_validation(records, fraction, validation)
     cal, notes = None, []
     if len(records) > 1:
         notes.append(f'{len(records)} records of one muscle diagnosed together: one '
@@ -184,12 +195,12 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
         notes.append(f'nominal parameters from the calibrated params file {calibrated}')
     elif calibrate_first:
         cal, params_of, note = _calibrate_training_part(records, params_of, model, fraction,
-                                                        supply, progress)
+                                                        supply, progress, validation)
         notes.append(note)
     bar = Progress(progress, EXPECTED_SIMULATIONS * len(records))
     options = dict(model=model, physics_rate=physics_rate,
                    fit_rate=fit_rate or fitting.FIT_RATE_HZ, train_fraction=fraction,
-                   progress=bar)
+                   progress=bar, validation=validation)
     recalibrated = cal is not None or bool(calibrated)
     try:
         problems, problem, start_values, nominals = _nominal_problems(
@@ -255,6 +266,14 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
                                    [p.parameters(values) for p in problems])
     verdict, explanation = decide_verdict(effects, nominal_stats, extended_stats,
                                           whole_stats)
+    pinned = parameters_at_bounds(effects, values, candidates)
+    if verdict == 'explained' and pinned:
+        verdict = 'unexplained'
+        explanation = ('the effects found leave no structure, but '
+                       + ', '.join(f'{n} = {v:.4g} {SPECS[n].unit}' for n, v, _ in pinned)
+                       + ' sits at the end of its physical range: the data ask for more '
+                       'than the effect can be, so it stands in for a cause that is not in '
+                       'the catalogue and is not named')
     helpful = []
     if verdict == 'unexplained' and effects:
         # what helps is shown, but an effect that leaves structure is not a cause
@@ -267,6 +286,8 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
         nominal_rmse=nominal_rmse, extended_rmse=extended_rmse,
         nominal_stats=nominal_stats, extended_stats=extended_stats,
         sigma=dict(problems[0].sigma), split_time=float(record.time[problems[0].full_split]),
+        heldout_spans=[(float(record.time[a]), float(record.time[b - 1]))
+                       for a, b in problems[0].full_runs], validation=validation,
         verdict=verdict, explanation=explanation, elapsed=0.0,
         n_simulations=bar.count, untestable=untestable)
     result.elapsed = wallclock.perf_counter() - start
@@ -344,24 +365,32 @@ def _candidates(records, params, model, problems, nominals):
     if temps and len(temps) == len(records):
         initial = float(np.median(np.concatenate([
             r.temperature[r.time <= r.time[0] + INITIAL_WINDOW_S] for r in records])))
-    peaks = [float(np.percentile(r.displacement[:p.full_split], PEAK_PERCENTILE))
+    peaks = [float(np.percentile(r.displacement[p.full_train_mask], PEAK_PERCENTILE))
              for r, p in zip(records, problems)]
-    model_peaks = [float(n.displacement[:p.full_split].max())
+    model_peaks = [float(n.displacement[p.full_train_mask].max())
                    for n, p in zip(nominals, problems)]
     i = int(np.argmax(model_peaks))  # the record whose stroke a stop would cut first
     return build_candidates(params, model, float(records[i].load[0]), model_peaks[i],
                             initial_temperature=initial, measured_peak=peaks[i])
 
 
-def _calibrate_training_part(records, params_of, model, fraction, supply, progress):
-    """Return (Calibration or None, [params per record], note): nominal fitted on training."""
+def _calibrate_training_part(records, params_of, model, fraction, supply, progress,
+                             validation=DEFAULT_VALIDATION):
+    """Return (Calibration or None, [params per record], note): nominal fitted on training.
+
+    Each record is simulated whole on a grid of about CALIBRATION_RATE_HZ; only
+    its training samples (holdout.py) enter the fit.
+    """
+    from tca_ros.diagnosis.holdout import make_holdout
     from tca_ros.diagnosis.calibration import calibrate, CalibrationError, record_params
     from tca_ros.model.kinetostatic_models import make_kinetostatic_model
     from tca_ros.model.quasistatic import QuasiStaticUnsupported
-    heads = [decimated(leading_part(r, fraction), CALIBRATION_RATE_HZ) for r in records]
+    holdout = make_holdout(fraction, validation)
+    coarse = [decimated(r, CALIBRATION_RATE_HZ) for r in records]
+    masks = [holdout.train_mask(c.time, r.duration) for c, r in zip(coarse, records)]
     try:
-        cal = calibrate(heads, params_of[0], model=model, check=False, supply=supply,
-                        progress=progress)
+        cal = calibrate(coarse, params_of[0], model=model, check=False, supply=supply,
+                        progress=progress, masks=masks)
     except (CalibrationError, QuasiStaticUnsupported, ValueError, ArithmeticError) as exc:
         return None, params_of, f'calibration skipped ({str(exc).splitlines()[0]})'
     calibrated = [record_params(cal.params, r).with_values(model=model) for r in records]

@@ -95,9 +95,63 @@ def remove_nuisance(values, block_rate, start=None):
     return values - basis @ coef
 
 
+def nuisance_design(items):
+    """Return one nuisance matrix per segment, over columns shared where drifts are.
+
+    ``items``: (size, block rate in Hz, start in s or None, group or None) per
+    segment. A segment with a start has a linear drift from its record's zero
+    (:func:`nuisance_columns`); segments of one ``group`` (the held-out blocks of
+    one record) share that drift, as a sensor's drift runs on through the blocks.
+    A segment without a start has its own offset and drift.
+    """
+    keys, widths = [], {}
+    for i, (size, _, start, group) in enumerate(items):
+        key = ('own', i) if start is None or group is None else ('group', group)
+        keys.append(key)
+        widths[key] = 2 if start is None else 1
+    offset, at = {}, 0
+    for key in dict.fromkeys(keys):
+        offset[key] = at
+        at += widths[key]
+    times = {}
+    for (size, rate, start, _), key in zip(items, keys):
+        if start is not None:
+            t = float(start) + (np.arange(size) + 0.5) / rate
+            times[key] = max(times.get(key, 0.0), float(t[-1]) if size else 0.0)
+    mats = []
+    for (size, rate, start, _), key in zip(items, keys):
+        block = np.zeros((size, at))
+        if start is None:
+            block[:, offset[key]:offset[key] + 2] = nuisance_columns(size, rate)
+        else:
+            t = float(start) + (np.arange(size) + 0.5) / rate
+            block[:, offset[key]] = t / (times[key] if times[key] > 0.0 else 1.0)
+        mats.append(block)
+    return mats
+
+
+def remove_nuisance_jointly(blocks, items):
+    """Return each of ``blocks`` (block means) minus the least-squares nuisance part.
+
+    ``items`` as :func:`nuisance_design`; segments of one group share a drift.
+    """
+    if not blocks:
+        return []
+    mats = nuisance_design(items)
+    stacked = np.concatenate(blocks)
+    if stacked.size < 3:
+        return [b - b.mean() if b.size and it[2] is None else b for b, it in zip(blocks, items)]
+    design = np.vstack(mats)
+    coef, *_ = np.linalg.lstsq(design, stacked, rcond=None)
+    return [b - m @ coef for b, m in zip(blocks, mats)]
+
+
 def _segment(seg):
-    """Return (residual, terms, sample rate, start or None) of a 3- or 4-tuple."""
-    return (*seg[:3], seg[3] if len(seg) > 3 else None)
+    """Return (residual, terms, sample rate, start or None, group or None) of a tuple.
+
+    A segment is (residual, terms, sample rate[, start[, group]]).
+    """
+    return (*seg[:3], seg[3] if len(seg) > 3 else None, seg[4] if len(seg) > 4 else None)
 
 
 def first_order_lag(signal, sample_rate, tau):
@@ -178,26 +232,52 @@ def input_terms(predicted, rise, power, sample_rate, thermal_tau):
     predicted: model displacement or temperature (channel units); rise: predicted
     temperature rise (K); power (W); thermal_tau (s): the model's time constant.
     """
+    return _scaled_columns(_input_signals(predicted, rise, power, sample_rate, thermal_tau))
+
+
+def input_terms_in_runs(predicted, rise, power, sample_rate, thermal_tau, runs):
+    """Return [regressor matrix] of :func:`input_terms` in each index run (i0, i1).
+
+    The signals are formed, centred and scaled over the whole record (the power's
+    lags carry their history into a run), then cut into the runs: every run has
+    the same columns, and a run's level of a signal is part of it (a model
+    error that follows the predicted level from block to block is predictable).
+    """
+    signals = _input_signals(predicted, rise, power, sample_rate, thermal_tau)
+    out = []
+    for c in signals:
+        c = c - c.mean()
+        s = float(np.sqrt(np.mean(c ** 2)))
+        out.append(c / s if s > 0.0 and np.all(np.isfinite(c)) else np.zeros_like(c))
+    return [np.column_stack([c[a:b] for c in out]) for a, b in runs]
+
+
+def _input_signals(predicted, rise, power, sample_rate, thermal_tau):
     predicted = np.asarray(predicted, dtype=float)
     centred = predicted - predicted.mean()
     rate = np.gradient(predicted) * sample_rate
-    cols = [centred, centred ** 2, rate, np.asarray(rise, dtype=float),
+    return [centred, centred ** 2, rate, np.asarray(rise, dtype=float),
             first_order_lag(power, sample_rate, thermal_tau / 3.0),
             first_order_lag(power, sample_rate, 3.0 * thermal_tau)]
+
+
+def _scaled_columns(cols):
+    """Return the columns centred and scaled to unit RMS (constant ones dropped)."""
     out = []
     for c in cols:
         c = c - c.mean()
         s = float(np.sqrt(np.mean(c ** 2)))
         if s > 0.0 and np.all(np.isfinite(c)):
             out.append(c / s)
-    return np.column_stack(out) if out else np.zeros((predicted.size, 0))
+    return np.column_stack(out) if out else np.zeros((np.size(cols[0]), 0))
 
 
 def structure_test(segments, swing, rate_hz=STRUCTURE_RATE_HZ, floor_share=STRUCTURE_FLOOR,
                    noise_share=STRUCTURE_NOISE_SHARE):
     """Return the StructureTest of residuals against input-driven terms.
 
-    ``segments`` is a list of (residual, terms, sample rate in Hz), one per record
+    ``segments`` is a list of (residual, terms, sample rate in Hz[, start[, group]]),
+    one per record or per held-out run of a record
     (terms from :func:`input_terms`, same columns in every record); ``swing`` is
     the measured signal's range (channel units). The practical floor on the
     predictable part is the larger of ``noise_share`` times the noise (the
@@ -211,16 +291,18 @@ def structure_test(segments, swing, rate_hz=STRUCTURE_RATE_HZ, floor_share=STRUC
     averages out, the structure stays). Nuisance terms per record
     (:func:`nuisance_columns`): a linear drift from the record's zero when the
     segment's start (s since that zero) is given as a 4th element, else an
-    offset and a linear drift over the segment. The AR(p) noise model is
+    offset and a linear drift over the segment; segments of one group (a 5th
+    element: the held-out runs of one record) share one drift. The AR(p) noise model is
     fitted to the full regression's
     residual and both regressions are prewhitened with it (each record on its
     own) before the F-test.
     """
     parts, blocked = [], []
     segments = [_segment(seg) for seg in segments]
-    native = np.concatenate([np.asarray(r, dtype=float) for r, _, _, _ in segments])
+    native = np.concatenate([np.asarray(r, dtype=float) for r, *_ in segments])
     native_ms = float(np.mean(native ** 2)) if native.size else 0.0
-    for residual, terms, sample_rate, start in segments:
+    items = []
+    for residual, terms, sample_rate, start, group in segments:
         step = max(1, int(round(sample_rate / rate_hz)))
         e = block_means(residual, step)
         blocked.append(e)
@@ -228,7 +310,10 @@ def structure_test(segments, swing, rate_hz=STRUCTURE_RATE_HZ, floor_share=STRUC
             continue
         x = np.column_stack([block_means(c, step) for c in terms.T])
         block_rate = sample_rate / step
-        parts.append((e, x, nuisance_columns(e.size, block_rate, start)))
+        parts.append((e, x))
+        items.append((e.size, block_rate, start, group))
+    # the nuisance terms of each segment, zero elsewhere (shared within a group)
+    parts = [(e, x, u) for (e, x), u in zip(parts, nuisance_design(items))]
     n = sum(e.size for e, _, _ in parts)
     if n < 12 or not parts:
         e = np.concatenate(blocked) if blocked else np.zeros(0)
@@ -237,13 +322,8 @@ def structure_test(segments, swing, rate_hz=STRUCTURE_RATE_HZ, floor_share=STRUC
     cols = min(x.shape[1] for _, x, _ in parts)
     es = [e for e, _, _ in parts]
     xs = [x[:, :cols] for _, x, _ in parts]
-    k = sum(u.shape[1] for _, _, u in parts)
-    nuis, at = [], 0
-    for e, _, u in parts:  # the nuisance terms of record i, zero elsewhere
-        block = np.zeros((e.size, k))
-        block[:, at:at + u.shape[1]] = u
-        at += u.shape[1]
-        nuis.append(block)
+    k = parts[0][2].shape[1]
+    nuis = [u for _, _, u in parts]
 
     def stacked(phi):
         ew = np.concatenate([prewhiten(e, phi) for e in es])
@@ -327,10 +407,11 @@ def heldout_deviance_gain(pairs, rate_hz=STRUCTURE_RATE_HZ):
     """Return (deviance gain, samples) of a candidate over a base on held-out data.
 
     ``pairs``: one list per channel of (base residual, candidate residual, sample
-    rate in Hz), one per record (channel units). The noise model is the
-    verdict's (:func:`structure_test`): per record its nuisance terms (a
-    drift from the record's zero when a 4th element gives the start in s, else
-    an offset and a linear drift) are noise and removed, the rest is
+    rate in Hz[, start[, group]]), one per record or held-out run (channel
+    units). The noise model is the verdict's (:func:`structure_test`): per
+    record its nuisance terms (a drift from the record's zero when a 4th element
+    gives the start in s, shared by the runs of one group, else an offset and a
+    linear drift) are noise and removed, the rest is
     block-averaged to about ``rate_hz`` and
     AR(p) (p by BIC, memory capped at MAX_NOISE_TAU_S) fitted to the
     candidate's residual; both residuals are prewhitened with it. Then
@@ -344,16 +425,20 @@ def heldout_deviance_gain(pairs, rate_hz=STRUCTURE_RATE_HZ):
     """
     total, count = 0.0, 0
     for channel in pairs:
-        base, cand = [], []
+        base, cand, items = [], [], []
         block_rate = rate_hz
         for r0, r1, sample_rate, *rest in channel:
             if r0 is None or r1 is None:
                 return -math.inf, count
             start = rest[0] if rest else None
+            group = rest[1] if len(rest) > 1 else None
             step = max(1, int(round(sample_rate / rate_hz)))
             block_rate = sample_rate / step
-            base.append(remove_nuisance(block_means(r0, step), block_rate, start))
-            cand.append(remove_nuisance(block_means(r1, step), block_rate, start))
+            base.append(block_means(r0, step))
+            cand.append(block_means(r1, step))
+            items.append((base[-1].size, block_rate, start, group))
+        base = remove_nuisance_jointly(base, items)
+        cand = remove_nuisance_jointly(cand, items)
         joined = np.concatenate(cand) if cand else np.zeros(0)
         if joined.size < 12 or not np.all(np.isfinite(joined)):
             return (-math.inf if joined.size and not np.all(np.isfinite(joined)) else 0.0,

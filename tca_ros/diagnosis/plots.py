@@ -16,30 +16,42 @@ def _axes(ax):
     return ax
 
 
-def plot_fit(time, measured, nominal, extended, split_time, ax=None, scale=1e3,
+def shade_heldout(ax, spans):
+    """Shade the held-out spans [(start, end)] (s) of a time axis; return the artists."""
+    return [ax.axvspan(a, b, color='khaki', alpha=0.35, lw=0,
+                       label='held out' if i == 0 else None)
+            for i, (a, b) in enumerate(spans)]
+
+
+def plot_fit(time, measured, nominal, extended, heldout_spans, ax=None, scale=1e3,
              ylabel='contraction (mm)'):
-    """Plot measured vs nominal vs extended over time (s); return the lines."""
+    """Plot measured vs nominal vs extended over time (s), held-out spans shaded.
+
+    ``heldout_spans``: [(start, end)] (s). Returns the lines.
+    """
     ax = _axes(ax)
     lines = [ax.plot(time, measured * scale, color='0.6', lw=0.6, label='measured')[0],
              ax.plot(time, nominal * scale, color='tab:red', lw=1.0, label='nominal')[0],
              ax.plot(time, extended * scale, color='tab:blue', lw=1.0, ls='--',
-                     label='extended')[0],
-             ax.axvline(split_time, color='k', lw=0.8, ls=':', label='held-out from')]
+                     label='extended')[0]] + shade_heldout(ax, heldout_spans)
     ax.set_xlabel('time (s)')
     ax.set_ylabel(ylabel)
     ax.legend(loc='best', fontsize='small')
     return lines
 
 
-def plot_residual_time(time, residual_nominal, residual_extended, sigma, split_time, ax=None,
-                       scale=MICRO, ylabel='residual (um)'):
-    """Plot residuals (measured - model) over time (s) with the +-2 sigma noise band."""
+def plot_residual_time(time, residual_nominal, residual_extended, sigma, heldout_spans,
+                       ax=None, scale=MICRO, ylabel='residual (um)'):
+    """Plot residuals (measured - model) over time (s) with the +-2 sigma noise band.
+
+    ``heldout_spans``: [(start, end)] (s), shaded.
+    """
     ax = _axes(ax)
     out = [ax.plot(time, residual_nominal * scale, color='tab:red', lw=0.6, label='nominal')[0],
            ax.plot(time, residual_extended * scale, color='tab:blue', lw=0.6,
                    label='extended')[0],
            ax.axhspan(-2 * sigma * scale, 2 * sigma * scale, color='0.85', label='2 sigma noise'),
-           ax.axvline(split_time, color='k', lw=0.8, ls=':')]
+           *shade_heldout(ax, heldout_spans)]
     ax.set_xlabel('time (s)')
     ax.set_ylabel(ylabel)
     ax.legend(loc='best', fontsize='small')

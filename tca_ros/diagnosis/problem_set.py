@@ -31,6 +31,7 @@ class FitProblemSet(FitProblem):
         self.sample_rate = first.sample_rate
         self.sigma = first.sigma
         self.full_split = first.full_split
+        self.holdout = first.holdout
         self.recalibration = ()
 
     @property
@@ -73,7 +74,7 @@ class FitProblemSet(FitProblem):
                                for i in range(len(self.channels))])
 
     def heldout_residuals(self, values):
-        """Return [{channel: residual}] on the coarse held-out parts (one per record), or None."""
+        """Return [{channel: residual}] on the coarse held-out runs of every record, or None."""
         out = []
         for p in self.problems:
             part = p.heldout_residuals(values)
@@ -84,13 +85,18 @@ class FitProblemSet(FitProblem):
 
     @property
     def coarse_rates(self):
-        """Return [coarse-grid rate (Hz)] per record."""
+        """Return [coarse-grid rate (Hz)] per held-out run of every record."""
         return [r for p in self.problems for r in p.coarse_rates]
 
     @property
     def heldout_starts(self):
-        """Return [time (s) of each held-out part's start since its record's zero]."""
+        """Return [time (s) of each held-out run's start since its record's zero]."""
         return [t for p in self.problems for t in p.heldout_starts]
+
+    @property
+    def heldout_groups(self):
+        """Return [key of the record] per held-out run of every record."""
+        return [g for p in self.problems for g in p.heldout_groups]
 
     def heldout(self, values):
         """Return (cost, {channel: RMSE}, n, mean lag-1 autocorrelation) over the records."""
@@ -100,7 +106,7 @@ class FitProblemSet(FitProblem):
             cost += c
             n += k
             rhos.append(rho)
-            m = p.m - p.split
+            m = p.heldout_index.size
             for ch, v in rmse.items():
                 sq[ch] = sq.get(ch, 0.0) + v * v * m
                 counts[ch] = counts.get(ch, 0) + m

@@ -10,6 +10,7 @@ import os
 import numpy as np
 
 from tca_ros.diagnosis import plots
+from tca_ros.diagnosis.summary import heldout_text
 from tca_ros.diagnosis.verdict import gain
 from tca_ros.model.params import dump_params
 
@@ -28,7 +29,7 @@ def write_figures(result, report_dir):
 
     r = result.record
     nom, ext = result.nominal, result.extended
-    split = result.split_time
+    split = result.heldout_spans
     names = []
     rows = 2 if r.temperature is not None else 1
     fig, axes = plt.subplots(rows, 1, figsize=(9, 3.2 * rows + 1.2), sharex=True,
@@ -158,8 +159,7 @@ def write_markdown(result, report_dir, figures):
         f'{r.time.size} samples; measured: {", ".join(result.nominal_rmse)})',
         f'- nominal config: `{result.config}`, moving mass {r.mass * 1e3:.2f} g, '
         f'kinetostatic model `{result.model}`',
-        f'- train 0-{result.split_time:.1f} s, held out {result.split_time:.1f}-'
-        f'{r.time[-1]:.1f} s',
+        f'- {heldout_text(result)}',
         '- sensor noise from robust second differences: ' + ', '.join(
             f'{c} {_fmt(s)} {"m" if c == "displacement" else "K"}'
             for c, s in result.sigma.items()),

@@ -15,6 +15,12 @@ def _format_value(name, value):
     return f'{short}={value:.3g} {SPECS[name].unit}'.rstrip(' -')
 
 
+def heldout_text(result):
+    """Return e.g. 'held out 15-23, 37-44, 52-59 s (blocks; the rest trains)' (s)."""
+    spans = ', '.join(f'{a:.0f}-{b:.0f}' for a, b in result.heldout_spans)
+    return f'held out {spans} s ({result.validation}; the rest trains)'
+
+
 def _format_rmse(channel, value):
     return f'{value * 1e6:7.1f} um' if channel == 'displacement' else f'{value:7.2f} K '
 
@@ -30,8 +36,7 @@ def format_summary(result):
            + ', '.join(os.path.basename(p) for p in result.records[1:])]
           if len(result.records) > 1 else []),
         f'config {result.config} (mass {r.mass * 1e3:.1f} g), model {result.model}; '
-        f'train 0-{result.split_time:.0f} s, held out {result.split_time:.0f}-'
-        f'{r.time[-1]:.0f} s',
+        f'{heldout_text(result)}',
         'sensor noise (2nd differences): ' + ', '.join(
             f'{c} {_format_rmse(c, s).strip()}' for c, s in result.sigma.items()),
         '',

@@ -9,7 +9,8 @@ import math
 
 import numpy as np
 
-from tca_ros.diagnosis.noise import heldout_deviance_gain, input_terms, structure_test
+from tca_ros.diagnosis.noise import heldout_deviance_gain, input_terms_in_runs, \
+    structure_test
 from tca_ros.diagnosis.residuals import residual_stats
 from tca_ros.model.thermal import thermal_time_constant
 
@@ -25,7 +26,7 @@ def pooled_heldout_rmse(problems, sims, channels):
     """Return {channel: RMSE} over the held-out parts of all records (m, K)."""
     out = {}
     for c in channels:
-        res = np.concatenate([getattr(p.record, c)[p.full_split:] - getattr(s, c)[p.full_split:]
+        res = np.concatenate([(getattr(p.record, c) - getattr(s, c))[p.full_heldout_index]
                               for p, s in zip(problems, sims)])
         out[c] = float(np.sqrt(np.mean(res ** 2)))
     return out
@@ -36,9 +37,10 @@ def channel_stats(problems, sims, params=None, whole=False):
 
     ``problems`` and ``sims`` are lists (one per record) or a single pair. Each
     channel carries the residual-input independence test (noise.structure_test),
-    pooled over the records, against the input-driven signals of ``params``
-    (per record; default each problem's). ``whole``: on the whole records
-    (training and held-out parts) instead.
+    pooled over the records and their held-out runs (one drift per record),
+    against the input-driven signals of ``params`` (per record; default each
+    problem's). ``whole``: on the whole records (training and held-out parts)
+    instead.
     """
     if not isinstance(problems, (list, tuple)):
         problems, sims = [problems], [sims]
@@ -49,19 +51,22 @@ def channel_stats(problems, sims, params=None, whole=False):
         segments, measured_all, predicted_all, temp_all = [], [], [], []
         swing = 0.0
         for p, sim, par in zip(problems, sims, params):
-            r, s = p.record, (0 if whole else p.full_split)
+            r = p.record
+            runs = [(0, r.time.size)] if whole else p.full_runs
             measured, predicted = getattr(r, c), getattr(sim, c)
             tau = thermal_time_constant(par.fiber, par.thermal)
-            rise = sim.temperature[s:] - par.thermal.ambient_temperature
-            terms = input_terms(predicted[s:], rise, r.power[s:], p.sample_rate, tau)
-            segments.append((measured[s:] - predicted[s:], terms, p.sample_rate,
-                             float(r.time[s] - r.time[0])))
+            rise = sim.temperature - par.thermal.ambient_temperature
+            terms = input_terms_in_runs(predicted, rise, r.power, p.sample_rate, tau, runs)
+            for (a, b), x in zip(runs, terms):
+                segments.append((measured[a:b] - predicted[a:b], x, p.sample_rate,
+                                 float(r.time[a] - r.time[0]), id(p)))
             swing = max(swing, float(np.percentile(measured, 99.0)
                                      - np.percentile(measured, 1.0)))
-            measured_all.append(measured[s:])
-            predicted_all.append(predicted[s:])
+            index = np.concatenate([np.arange(a, b) for a, b in runs])
+            measured_all.append(measured[index])
+            predicted_all.append(predicted[index])
             temp = r.temperature if r.temperature is not None else sim.temperature
-            temp_all.append(temp[s:])
+            temp_all.append(temp[index])
         first = problems[0]
         test = structure_test(segments, swing)
         out[c] = residual_stats(c, UNITS[c], np.concatenate(measured_all),
@@ -146,12 +151,14 @@ def heldout_gain_over(problems, base_sims, sims, added_params):
     """
     pairs = []
     for c in problems[0].channels:
-        pairs.append([(getattr(p.record, c)[p.full_split:] - getattr(b, c)[p.full_split:],
-                       getattr(p.record, c)[p.full_split:] - getattr(e, c)[p.full_split:],
-                       p.sample_rate, float(p.record.time[min(p.full_split,
-                                                              p.record.time.size - 1)]
-                                            - p.record.time[0]))
-                      for p, b, e in zip(problems, base_sims, sims)])
+        channel = []
+        for p, b, e in zip(problems, base_sims, sims):
+            measured = getattr(p.record, c)
+            for i0, i1 in p.full_runs:
+                channel.append((measured[i0:i1] - getattr(b, c)[i0:i1],
+                                measured[i0:i1] - getattr(e, c)[i0:i1], p.sample_rate,
+                                float(p.record.time[i0] - p.record.time[0]), id(p)))
+        pairs.append(channel)
     deviance, n = heldout_deviance_gain(pairs)
     if n < added_params + 2:
         return -math.inf
@@ -172,9 +179,10 @@ def noise_model_gain(problem, base_residuals, values, added_params):
     cand = problem.heldout_residuals(values)
     if base_residuals is None or cand is None:
         return -math.inf
-    rates, starts = problem.coarse_rates, problem.heldout_starts
-    pairs = [[(b[c], r[c], rate, t0)
-              for b, r, rate, t0 in zip(base_residuals, cand, rates, starts)]
+    rates, starts, groups = problem.coarse_rates, problem.heldout_starts, \
+        problem.heldout_groups
+    pairs = [[(b[c], r[c], rate, t0, g)
+              for b, r, rate, t0, g in zip(base_residuals, cand, rates, starts, groups)]
              for c in problem.channels]
     deviance, n = heldout_deviance_gain(pairs)
     if n < added_params + 2:
