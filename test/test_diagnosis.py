@@ -174,3 +174,35 @@ def test_mcap_recording_is_diagnosed_like_a_csv(tmp_path):
     result = _diagnose(str(bag))
     assert result.effects[:1] == ['power_loss']
     assert result.gain_percent > 0.0
+
+
+def test_parameters_at_a_bound_of_their_range_are_flagged():
+    from tca_ros.diagnosis.candidates import build_candidates, parameters_at_bounds
+    cands = build_candidates(load_params('free_stroke'), 'cst', 0.2, 0.01)
+    found = ['ambient_offset', 'sensor_lag', 'friction']
+    values = {'effects.ambient_offset': -15.0, 'effects.sensor_lag': 2.99,
+              'effects.friction_force': 0.0}
+    # -15 K is the lower end of a two-sided range, 2.99 s within 0.5 % of the 3 s end;
+    # zero friction is the effect's absence, not a bound it is pushed against
+    assert sorted(n for n, _, _ in parameters_at_bounds(found, values, cands)) == [
+        'effects.ambient_offset', 'effects.sensor_lag']
+    values.update({'effects.ambient_offset': 9.0, 'effects.sensor_lag': 2.8})
+    assert parameters_at_bounds(found, values, cands) == []
+
+
+def test_an_effect_that_explains_a_record_only_at_its_bound_is_not_named(
+        tmp_path, monkeypatch):
+    # the hidden-offset record of test_hidden_effect_is_named_with_a_heldout_gain, with the
+    # offset's range ending just above its true value: the fit explains the record at the
+    # end of the range, which says the catalogue's physical range was too small for it
+    from tca_ros.diagnosis import candidates
+    synth, path = _record(tmp_path, 100 + EFFECTS.index('ambient_offset'), ['ambient_offset'])
+    true = synth.values['effects.ambient_offset']
+    space, starts = candidates._SPACES['effects.ambient_offset']
+    end = abs(true) * 1.003
+    monkeypatch.setitem(candidates._SPACES, 'effects.ambient_offset',
+                        (dataclasses.replace(space, low=-end, high=end), starts))
+    result = _diagnose(path)
+    assert result.effects == [] and result.helpful == ['ambient_offset']
+    assert result.verdict == 'unexplained' and 'end of its physical range' in \
+        result.explanation
