@@ -102,7 +102,7 @@ def test_a_real_calibration_is_continuous_in_its_data():
     # 0.5 um. With the least determined parameter reset to its prior (the engine before
     # 2026-12-02) the two ended at gain 0.43 and 1.00, rise 110 and 73 K/W.
     from tca_ros.diagnosis.data import read_record
-    from tca_ros.diagnosis.identification import CALIBRATION_RATE_HZ
+    from tca_ros.diagnosis.nominal import CALIBRATION_RATE_HZ
     from tca_ros.diagnosis.record_ops import decimated, leading_part
     record = read_record(REAL_RECORD)
     rounded = dataclasses.replace(record, displacement=np.array(

@@ -3,9 +3,9 @@ import numpy as np
 import pytest
 
 from tca_ros.diagnosis.holdout import choose_validation, coolings, make_holdout, mask_runs
-from tca_ros.diagnosis.noise import heldout_deviance_gain, input_terms_in_runs, \
-    structure_test
+from tca_ros.diagnosis.noise import heldout_deviance_gain, structure_test
 from tca_ros.diagnosis.realistic import ar1
+from tca_ros.diagnosis.regressors import input_terms_in_runs
 
 RATE = 5.0  # Hz
 

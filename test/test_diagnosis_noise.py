@@ -5,9 +5,10 @@ import numpy as np
 import pytest
 
 from tca_ros.diagnosis.noise import (
-    ar_fit, ar_order, first_order_lag, heldout_deviance_gain, input_terms,
-    quantisation_sigma, quantisation_step, remove_nuisance, structure_test)
+    ar_fit, ar_order, heldout_deviance_gain, quantisation_sigma, quantisation_step,
+    structure_test)
 from tca_ros.diagnosis.realistic import ar1
+from tca_ros.diagnosis.regressors import first_order_lag, input_terms, remove_nuisance
 
 RATE = 20.0  # Hz
 N = 2400  # 120 s

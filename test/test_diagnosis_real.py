@@ -158,7 +158,7 @@ def test_a_calibration_the_model_cannot_run_falls_back_to_the_description(
     from tca_ros.diagnosis import identification
     path, start = realistic_case(31, [], str(tmp_path), rate=1.0,
                                  **dict(REALISTIC, duration=100.0))
-    real = identification._calibrate_training_part
+    real = identification.calibrate_training_part
 
     def overheating(records, params_of, *args):
         cal, _, note = real(records, params_of, *args)
@@ -166,7 +166,7 @@ def test_a_calibration_the_model_cannot_run_falls_back_to_the_description(
                                 p.thermal.convection_coefficient / 50.0}) for p in params_of]
         return cal, hot, note
 
-    monkeypatch.setattr(identification, '_calibrate_training_part', overheating)
+    monkeypatch.setattr(identification, 'calibrate_training_part', overheating)
     result = diagnose(path, start, progress=False)
     assert result.calibration is None
     # a heat loss 50x too small: the thread breaks (cst) or melts (rod) on the way

@@ -8,15 +8,12 @@ import math
 import os
 import time as wallclock
 
-import numpy as np
-
-from tca_ros.diagnosis.candidates import ABSORBED, absorbed_candidates, build_candidates, \
-    parameters_at_bounds, recalibration_spaces
-from tca_ros.diagnosis.data import DataError, read_record, record_config
-from tca_ros.diagnosis.fitting import FitProblem
+from tca_ros.diagnosis.candidates import ABSORBED, absorbed_candidates, parameters_at_bounds
+from tca_ros.diagnosis.data import DataError, record_config
 from tca_ros.diagnosis.holdout import AUTO, choose_validation, DEFAULT_VALIDATION
+from tca_ros.diagnosis.nominal import calibrate_training_part, candidates_of, nominal_problems, \
+    read_any, record_nominal
 from tca_ros.diagnosis.progress import Progress
-from tca_ros.diagnosis.record_ops import decimated
 from tca_ros.diagnosis.search import MIN_GAIN_PERCENT, search_effects
 from tca_ros.diagnosis.verdict import channel_stats, decide_verdict, gain, \
     heldout_gain_over, needs_explaining, NOTHING_TO_EXPLAIN, pooled_heldout_rmse
@@ -25,9 +22,6 @@ from tca_ros.model.params import SPECS
 VERDICTS = ('explained', 'adequate', 'unexplained')
 #: Rough count of simulations of a diagnosis, for the progress bar.
 EXPECTED_SIMULATIONS = 200
-PEAK_PERCENTILE = 99.5  # % of measured contraction taken as its peak (noise-robust)
-INITIAL_WINDOW_S = 1.0  # s at the start of a record taken as ambient equilibrium
-CALIBRATION_RATE_HZ = 10.0  # the calibrate-first step fits block means at about this rate
 
 
 class DiagnosisError(ValueError):
@@ -177,14 +171,14 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
     clear_map_cache()  # identical inputs give identical numbers (the maps grow on demand)
     paths = ([data_path] if isinstance(data_path, (str, os.PathLike))
              else list(data_path))
-    records = [_read_any(p, config) for p in paths]
+    records = [read_any(p, config) for p in paths]
     record = records[0]
     config = config or record_config(record)
     nominal_source = calibrated or config
     model = model or load_params(nominal_source).model
     # the extended params file must name the model its effects were fitted with
     base = load_params(nominal_source, model=model)
-    params_of = [_record_nominal(base, r) for r in records]
+    params_of = [record_nominal(base, r) for r in records]
     fraction = train_fraction or fitting.TRAIN_FRACTION
     validation = choose_validation(records, fraction, validation)
     cal, notes = None, []
@@ -194,8 +188,8 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
     if calibrated:
         notes.append(f'nominal parameters from the calibrated params file {calibrated}')
     elif calibrate_first:
-        cal, params_of, note = _calibrate_training_part(records, params_of, model, fraction,
-                                                        supply, progress, validation)
+        cal, params_of, note = calibrate_training_part(records, params_of, model, fraction,
+                                                       supply, progress, validation)
         notes.append(note)
     bar = Progress(progress, EXPECTED_SIMULATIONS * len(records))
     options = dict(model=model, physics_rate=physics_rate,
@@ -203,7 +197,7 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
                    progress=bar, validation=validation)
     recalibrated = cal is not None or bool(calibrated)
     try:
-        problems, problem, start_values, nominals = _nominal_problems(
+        problems, problem, start_values, nominals = nominal_problems(
             records, params_of, recalibrated, options, paths)
     except DataError:
         bar.close()
@@ -215,11 +209,11 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
                                  f'record with model={model} ({exc})') from None
         # the training part's calibration drove the record outside the model's range
         # (e.g. beyond the melt on the held-out part): diagnose against the description
-        cal, params_of = None, [_record_nominal(base, r) for r in records]
+        cal, params_of = None, [record_nominal(base, r) for r in records]
         notes[-1] = (f'calibration not used: its nominal model cannot simulate the whole '
                      f'record ({str(exc).splitlines()[0]})')
         try:
-            problems, problem, start_values, nominals = _nominal_problems(
+            problems, problem, start_values, nominals = nominal_problems(
                 records, params_of, False, options, paths)
         except (ValueError, ArithmeticError) as again:
             bar.close()
@@ -227,7 +221,7 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
                                  f'record with model={model} ({again})') from None
     params = params_of[0]
     candidates, absorbed = absorbed_candidates(
-        _candidates(records, params, model, problems, nominals), problem.recalibration)
+        candidates_of(records, params, model, problems, nominals), problem.recalibration)
     if absorbed:
         notes.append(f'not searched: {", ".join(absorbed)} (the calibrated '
                      f'{", ".join(ABSORBED[a] for a in absorbed)} is the same parameter)')
@@ -313,93 +307,3 @@ def _beats_nominal(problems, nominals, extendeds, added, nominal_rmse):
     score = [math.sqrt(sum((rmse[c] / sigma[c]) ** 2 for c in channels))
              for rmse in (nominal_rmse, after)]
     return score[1] <= (1.0 - MIN_GAIN_PERCENT / 100.0) * score[0]
-
-
-def _nominal_problems(records, params_of, recalibrated, options, paths):
-    """Return (problems, problem or set, start values, nominal simulations).
-
-    ``recalibrated``: the nominal parameters stay free in the search
-    (candidates.recalibration_spaces). Raises ValueError (a DataError for
-    records whose channels differ) or ArithmeticError when the nominal model
-    cannot simulate a record.
-    """
-    from tca_ros.diagnosis.problem_set import FitProblemSet
-    problems = [FitProblem(r, p, **options) for r, p in zip(records, params_of)]
-    try:
-        problem = problems[0] if len(problems) == 1 else FitProblemSet(problems)
-    except ValueError as exc:
-        raise DataError(f'{paths[1]}: row 1, column {"temperature"!r}: {exc}') from None
-    start_values = {}
-    if recalibrated:  # the nominal parameters stay free in the search
-        spaces, start_values = recalibration_spaces(params_of[0])
-        problem.recalibration = spaces
-        for p in problems:
-            p.recalibration = spaces
-    problem.set_base(start_values)
-    nominals = [p.simulate_full(start_values) for p in problems]
-    return problems, problem, start_values, nominals
-
-
-def _read_any(path, config):
-    """Return the Record of a CSV or a rosbag2 recording (a bag needs ``config``)."""
-    from tca_ros.diagnosis.data import read_bag_record
-    from tca_ros.model.params import load_params
-    if os.path.isdir(path) or str(path).endswith('.mcap'):
-        if config is None:
-            raise DataError(f'{path}: row 1, column {"tca"!r}: a rosbag2 recording '
-                            'carries no config name; pass --config')
-        return read_bag_record(path, tca=config, mass_kg=load_params(config).dynamics.mass)
-    return read_record(path)
-
-
-def _record_nominal(params, record):
-    """Return ``params`` with the record's mass (kg) and initial load (N)."""
-    return params.with_values(**{'dynamics.mass': record.mass,
-                                 'dynamics.load': float(record.load[0])})
-
-
-def _candidates(records, params, model, problems, nominals):
-    """Return the catalogue candidates with data-driven starts from the records."""
-    initial = None
-    temps = [r.temperature for r in records if r.temperature is not None]
-    if temps and len(temps) == len(records):
-        initial = float(np.median(np.concatenate([
-            r.temperature[r.time <= r.time[0] + INITIAL_WINDOW_S] for r in records])))
-    peaks = [float(np.percentile(r.displacement[p.full_train_mask], PEAK_PERCENTILE))
-             for r, p in zip(records, problems)]
-    model_peaks = [float(n.displacement[p.full_train_mask].max())
-                   for n, p in zip(nominals, problems)]
-    i = int(np.argmax(model_peaks))  # the record whose stroke a stop would cut first
-    return build_candidates(params, model, float(records[i].load[0]), model_peaks[i],
-                            initial_temperature=initial, measured_peak=peaks[i])
-
-
-def _calibrate_training_part(records, params_of, model, fraction, supply, progress,
-                             validation=DEFAULT_VALIDATION):
-    """Return (Calibration or None, [params per record], note): nominal fitted on training.
-
-    Each record is simulated whole on a grid of about CALIBRATION_RATE_HZ; only
-    its training samples (holdout.py) enter the fit.
-    """
-    from tca_ros.diagnosis.holdout import make_holdout
-    from tca_ros.diagnosis.calibration import calibrate, CalibrationError, record_params
-    from tca_ros.model.kinetostatic_models import make_kinetostatic_model
-    from tca_ros.model.quasistatic import QuasiStaticUnsupported
-    holdout = make_holdout(fraction, validation)
-    coarse = [decimated(r, CALIBRATION_RATE_HZ) for r in records]
-    masks = [holdout.train_mask(c.time, r.duration) for c, r in zip(coarse, records)]
-    try:
-        cal = calibrate(coarse, params_of[0], model=model, check=False, supply=supply,
-                        progress=progress, masks=masks)
-    except (CalibrationError, QuasiStaticUnsupported, ValueError, ArithmeticError) as exc:
-        return None, params_of, f'calibration skipped ({str(exc).splitlines()[0]})'
-    calibrated = [record_params(cal.params, r).with_values(model=model) for r in records]
-    try:  # the stepper's model must exist for the calibrated values (the rod table)
-        make_kinetostatic_model(calibrated[0], model)
-    except (ValueError, ArithmeticError, RuntimeError) as exc:
-        return None, params_of, (f'calibration not used: the {model} model cannot represent '
-                                 f'its result ({str(exc).splitlines()[0]})')
-    fitted = [e.name for e in cal.report.estimates.values() if e.determined]
-    note = ('nominal parameters calibrated on the training part: '
-            + (', '.join(fitted) if fitted else 'none determined'))
-    return cal, calibrated, note

@@ -30,6 +30,8 @@ import math
 import numpy as np
 from scipy import stats
 
+from tca_ros.diagnosis.regressors import nuisance_design, remove_nuisance_jointly
+
 STRUCTURE_ALPHA = 1e-3  # significance level of the residual-input test
 STRUCTURE_NOISE_SHARE = 1.0  # predictable residual within this many noise RMS is noise
 STRUCTURE_FLOOR = 0.005  # ... and below this share of the signal swing is ignored
@@ -69,100 +71,12 @@ def block_means(values, step):
     return values[:n * step].reshape(n, step).mean(axis=1) if n else values[:0]
 
 
-def nuisance_columns(size, block_rate, start=None):
-    """Return the nuisance regressors (size x 1 or 2) of one record's block means.
-
-    ``start`` (s): time of the segment's first sample since the record's zero (a
-    record reads zero at its start: an encoder is zeroed, a CSV is made
-    relative). Then a sensor offset is no noise and the one nuisance term is a
-    linear drift from that zero, (t - t_0) at the block centres scaled to unit
-    size. ``start`` None: an offset and a linear drift over the segment.
-    """
-    if start is None:
-        return np.column_stack([np.ones(size), np.linspace(-1.0, 1.0, size)])
-    t = float(start) + (np.arange(size) + 0.5) / block_rate
-    scale = float(t[-1]) if size and t[-1] > 0.0 else 1.0
-    return (t / scale)[:, None]
-
-
-def remove_nuisance(values, block_rate, start=None):
-    """Return ``values`` (block means) minus their least-squares nuisance part."""
-    values = np.asarray(values, dtype=float)
-    if values.size < 3:
-        return values - values.mean() if values.size and start is None else values
-    basis = nuisance_columns(values.size, block_rate, start)
-    coef, *_ = np.linalg.lstsq(basis, values, rcond=None)
-    return values - basis @ coef
-
-
-def nuisance_design(items):
-    """Return one nuisance matrix per segment, over columns shared where drifts are.
-
-    ``items``: (size, block rate in Hz, start in s or None, group or None) per
-    segment. A segment with a start has a linear drift from its record's zero
-    (:func:`nuisance_columns`); segments of one ``group`` (the held-out blocks of
-    one record) share that drift, as a sensor's drift runs on through the blocks.
-    A segment without a start has its own offset and drift.
-    """
-    keys, widths = [], {}
-    for i, (size, _, start, group) in enumerate(items):
-        key = ('own', i) if start is None or group is None else ('group', group)
-        keys.append(key)
-        widths[key] = 2 if start is None else 1
-    offset, at = {}, 0
-    for key in dict.fromkeys(keys):
-        offset[key] = at
-        at += widths[key]
-    times = {}
-    for (size, rate, start, _), key in zip(items, keys):
-        if start is not None:
-            t = float(start) + (np.arange(size) + 0.5) / rate
-            times[key] = max(times.get(key, 0.0), float(t[-1]) if size else 0.0)
-    mats = []
-    for (size, rate, start, _), key in zip(items, keys):
-        block = np.zeros((size, at))
-        if start is None:
-            block[:, offset[key]:offset[key] + 2] = nuisance_columns(size, rate)
-        else:
-            t = float(start) + (np.arange(size) + 0.5) / rate
-            block[:, offset[key]] = t / (times[key] if times[key] > 0.0 else 1.0)
-        mats.append(block)
-    return mats
-
-
-def remove_nuisance_jointly(blocks, items):
-    """Return each of ``blocks`` (block means) minus the least-squares nuisance part.
-
-    ``items`` as :func:`nuisance_design`; segments of one group share a drift.
-    """
-    if not blocks:
-        return []
-    mats = nuisance_design(items)
-    stacked = np.concatenate(blocks)
-    if stacked.size < 3:
-        return [b - b.mean() if b.size and it[2] is None else b for b, it in zip(blocks, items)]
-    design = np.vstack(mats)
-    coef, *_ = np.linalg.lstsq(design, stacked, rcond=None)
-    return [b - m @ coef for b, m in zip(blocks, mats)]
-
-
 def _segment(seg):
     """Return (residual, terms, sample rate, start or None, group or None) of a tuple.
 
     A segment is (residual, terms, sample rate[, start[, group]]).
     """
     return (*seg[:3], seg[3] if len(seg) > 3 else None, seg[4] if len(seg) > 4 else None)
-
-
-def first_order_lag(signal, sample_rate, tau):
-    """Return the signal through 1 / (tau s + 1) (exact for a held input; same units)."""
-    a = math.exp(-1.0 / (sample_rate * tau)) if tau > 0.0 else 0.0
-    out = np.empty(len(signal))
-    y = float(signal[0])
-    for i, u in enumerate(signal):
-        y = a * y + (1.0 - a) * u
-        out[i] = y
-    return out
 
 
 def ar_fit(e, order):
@@ -226,59 +140,13 @@ class StructureTest:
         return predicted or self.wander_rms > MAX_NOISE_SHARE * self.swing
 
 
-def input_terms(predicted, rise, power, sample_rate, thermal_tau):
-    """Return the regressor matrix of input-driven signals (columns scaled to unit RMS).
-
-    predicted: model displacement or temperature (channel units); rise: predicted
-    temperature rise (K); power (W); thermal_tau (s): the model's time constant.
-    """
-    return _scaled_columns(_input_signals(predicted, rise, power, sample_rate, thermal_tau))
-
-
-def input_terms_in_runs(predicted, rise, power, sample_rate, thermal_tau, runs):
-    """Return [regressor matrix] of :func:`input_terms` in each index run (i0, i1).
-
-    The signals are formed, centred and scaled over the whole record (the power's
-    lags carry their history into a run), then cut into the runs: every run has
-    the same columns, and a run's level of a signal is part of it (a model
-    error that follows the predicted level from block to block is predictable).
-    """
-    signals = _input_signals(predicted, rise, power, sample_rate, thermal_tau)
-    out = []
-    for c in signals:
-        c = c - c.mean()
-        s = float(np.sqrt(np.mean(c ** 2)))
-        out.append(c / s if s > 0.0 and np.all(np.isfinite(c)) else np.zeros_like(c))
-    return [np.column_stack([c[a:b] for c in out]) for a, b in runs]
-
-
-def _input_signals(predicted, rise, power, sample_rate, thermal_tau):
-    predicted = np.asarray(predicted, dtype=float)
-    centred = predicted - predicted.mean()
-    rate = np.gradient(predicted) * sample_rate
-    return [centred, centred ** 2, rate, np.asarray(rise, dtype=float),
-            first_order_lag(power, sample_rate, thermal_tau / 3.0),
-            first_order_lag(power, sample_rate, 3.0 * thermal_tau)]
-
-
-def _scaled_columns(cols):
-    """Return the columns centred and scaled to unit RMS (constant ones dropped)."""
-    out = []
-    for c in cols:
-        c = c - c.mean()
-        s = float(np.sqrt(np.mean(c ** 2)))
-        if s > 0.0 and np.all(np.isfinite(c)):
-            out.append(c / s)
-    return np.column_stack(out) if out else np.zeros((np.size(cols[0]), 0))
-
-
 def structure_test(segments, swing, rate_hz=STRUCTURE_RATE_HZ, floor_share=STRUCTURE_FLOOR,
                    noise_share=STRUCTURE_NOISE_SHARE):
     """Return the StructureTest of residuals against input-driven terms.
 
     ``segments`` is a list of (residual, terms, sample rate in Hz[, start[, group]]),
     one per record or per held-out run of a record
-    (terms from :func:`input_terms`, same columns in every record); ``swing`` is
+    (terms from :func:`regressors.input_terms`, same columns in every record); ``swing`` is
     the measured signal's range (channel units). The practical floor on the
     predictable part is the larger of ``noise_share`` times the noise (the
     standard deviation of the fitted AR noise model of the block means plus the
@@ -289,7 +157,7 @@ def structure_test(segments, swing, rate_hz=STRUCTURE_RATE_HZ, floor_share=STRUC
     otherwise hide the rest of it.
     Both are averaged over blocks to about ``rate_hz`` (white sensor noise
     averages out, the structure stays). Nuisance terms per record
-    (:func:`nuisance_columns`): a linear drift from the record's zero when the
+    (:func:`regressors.nuisance_columns`): a linear drift from the record's zero when the
     segment's start (s since that zero) is given as a 4th element, else an
     offset and a linear drift over the segment; segments of one group (a 5th
     element: the held-out runs of one record) share one drift. The AR(p) noise model is

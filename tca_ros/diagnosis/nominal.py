@@ -1,0 +1,110 @@
+"""The nominal model a diagnosis judges effects against, and its fitting problems.
+
+Read the records, set each one's mass and initial load, calibrate the nominal
+parameters on the training parts (calibration.py, masked by holdout.py), build
+one FitProblem per record, and the catalogue candidates with starts from the
+records. Used by identification.diagnose.
+"""
+import os
+
+import numpy as np
+
+from tca_ros.diagnosis.candidates import build_candidates, recalibration_spaces
+from tca_ros.diagnosis.data import DataError, read_record
+from tca_ros.diagnosis.fitting import FitProblem
+from tca_ros.diagnosis.holdout import DEFAULT_VALIDATION
+from tca_ros.diagnosis.record_ops import decimated
+
+PEAK_PERCENTILE = 99.5  # % of measured contraction taken as its peak (noise-robust)
+INITIAL_WINDOW_S = 1.0  # s at the start of a record taken as ambient equilibrium
+CALIBRATION_RATE_HZ = 10.0  # the calibrate-first step fits block means at about this rate
+
+
+def nominal_problems(records, params_of, recalibrated, options, paths):
+    """Return (problems, problem or set, start values, nominal simulations).
+
+    ``recalibrated``: the nominal parameters stay free in the search
+    (candidates.recalibration_spaces). Raises ValueError (a DataError for
+    records whose channels differ) or ArithmeticError when the nominal model
+    cannot simulate a record.
+    """
+    from tca_ros.diagnosis.problem_set import FitProblemSet
+    problems = [FitProblem(r, p, **options) for r, p in zip(records, params_of)]
+    try:
+        problem = problems[0] if len(problems) == 1 else FitProblemSet(problems)
+    except ValueError as exc:
+        raise DataError(f'{paths[1]}: row 1, column {"temperature"!r}: {exc}') from None
+    start_values = {}
+    if recalibrated:  # the nominal parameters stay free in the search
+        spaces, start_values = recalibration_spaces(params_of[0])
+        problem.recalibration = spaces
+        for p in problems:
+            p.recalibration = spaces
+    problem.set_base(start_values)
+    nominals = [p.simulate_full(start_values) for p in problems]
+    return problems, problem, start_values, nominals
+
+
+def read_any(path, config):
+    """Return the Record of a CSV or a rosbag2 recording (a bag needs ``config``)."""
+    from tca_ros.diagnosis.data import read_bag_record
+    from tca_ros.model.params import load_params
+    if os.path.isdir(path) or str(path).endswith('.mcap'):
+        if config is None:
+            raise DataError(f'{path}: row 1, column {"tca"!r}: a rosbag2 recording '
+                            'carries no config name; pass --config')
+        return read_bag_record(path, tca=config, mass_kg=load_params(config).dynamics.mass)
+    return read_record(path)
+
+
+def record_nominal(params, record):
+    """Return ``params`` with the record's mass (kg) and initial load (N)."""
+    return params.with_values(**{'dynamics.mass': record.mass,
+                                 'dynamics.load': float(record.load[0])})
+
+
+def candidates_of(records, params, model, problems, nominals):
+    """Return the catalogue candidates with data-driven starts from the records."""
+    initial = None
+    temps = [r.temperature for r in records if r.temperature is not None]
+    if temps and len(temps) == len(records):
+        initial = float(np.median(np.concatenate([
+            r.temperature[r.time <= r.time[0] + INITIAL_WINDOW_S] for r in records])))
+    peaks = [float(np.percentile(r.displacement[p.full_train_mask], PEAK_PERCENTILE))
+             for r, p in zip(records, problems)]
+    model_peaks = [float(n.displacement[p.full_train_mask].max())
+                   for n, p in zip(nominals, problems)]
+    i = int(np.argmax(model_peaks))  # the record whose stroke a stop would cut first
+    return build_candidates(params, model, float(records[i].load[0]), model_peaks[i],
+                            initial_temperature=initial, measured_peak=peaks[i])
+
+
+def calibrate_training_part(records, params_of, model, fraction, supply, progress,
+                            validation=DEFAULT_VALIDATION):
+    """Return (Calibration or None, [params per record], note): nominal fitted on training.
+
+    Each record is simulated whole on a grid of about CALIBRATION_RATE_HZ; only
+    its training samples (holdout.py) enter the fit.
+    """
+    from tca_ros.diagnosis.holdout import make_holdout
+    from tca_ros.diagnosis.calibration import calibrate, CalibrationError, record_params
+    from tca_ros.model.kinetostatic_models import make_kinetostatic_model
+    from tca_ros.model.quasistatic import QuasiStaticUnsupported
+    holdout = make_holdout(fraction, validation)
+    coarse = [decimated(r, CALIBRATION_RATE_HZ) for r in records]
+    masks = [holdout.train_mask(c.time, r.duration) for c, r in zip(coarse, records)]
+    try:
+        cal = calibrate(coarse, params_of[0], model=model, check=False, supply=supply,
+                        progress=progress, masks=masks)
+    except (CalibrationError, QuasiStaticUnsupported, ValueError, ArithmeticError) as exc:
+        return None, params_of, f'calibration skipped ({str(exc).splitlines()[0]})'
+    calibrated = [record_params(cal.params, r).with_values(model=model) for r in records]
+    try:  # the stepper's model must exist for the calibrated values (the rod table)
+        make_kinetostatic_model(calibrated[0], model)
+    except (ValueError, ArithmeticError, RuntimeError) as exc:
+        return None, params_of, (f'calibration not used: the {model} model cannot represent '
+                                 f'its result ({str(exc).splitlines()[0]})')
+    fitted = [e.name for e in cal.report.estimates.values() if e.determined]
+    note = ('nominal parameters calibrated on the training part: '
+            + (', '.join(fitted) if fitted else 'none determined'))
+    return cal, calibrated, note
