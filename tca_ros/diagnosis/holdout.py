@@ -113,8 +113,11 @@ COOLING_DROP = 0.25  # a power fall of this share of the record's peak starts a 
 
 
 def coolings(time, power, end):
-    """Return the number of coolings that start before ``end`` (s): power falls (W) by
-    COOLING_DROP of its peak from one sample to the next."""
+    """Return the number of coolings of ``power`` (W) that start before ``end`` (s).
+
+    A cooling starts where the power falls by COOLING_DROP of its peak from one
+    sample to the next.
+    """
     power = np.asarray(power, dtype=float)
     peak = float(power.max()) if power.size else 0.0
     if peak <= 0.0:

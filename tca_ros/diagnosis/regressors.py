@@ -1,5 +1,6 @@
-"""Regressors of the noise model: the nuisance terms a sensor's drift takes, and the
-signals the inputs drive (noise.py tests residuals against them).
+"""Regressors of the noise model (noise.py tests residuals against them).
+
+The nuisance terms a sensor's drift takes, and the signals the inputs drive.
 """
 import math
 
