@@ -77,11 +77,14 @@ def truth_structured(record_path, truth_file):
     defect outside the catalogue), no diagnosis can say 'explained'.
     """
     from tca_ros.diagnosis.data import read_record
-    from tca_ros.diagnosis.fitting import FitProblem
+    from tca_ros.diagnosis.fitting import FitProblem, TRAIN_FRACTION
+    from tca_ros.diagnosis.holdout import choose_validation
     from tca_ros.diagnosis.verdict import channel_stats
     from tca_ros.model.params import load_params
     record, truth = read_record(record_path), load_params(truth_file)
-    problem = FitProblem(record, truth, model=truth.model)
+    # judged on the held-out part the diagnosis uses (its default layout)
+    problem = FitProblem(record, truth, model=truth.model,
+                         validation=choose_validation([record], TRAIN_FRACTION))
     stats = channel_stats(problem, problem.simulate_full({}))
     return any(st.structured for st in stats.values())
 
