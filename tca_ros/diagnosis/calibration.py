@@ -348,10 +348,10 @@ def calibrate(records, params, model=None, fit=None, progress=False, max_nfev=40
     if not nominal:
         notes.append('power varies beyond on/off: taken as measured, '
                      'delivered_power_ratio not fitted')
-    by_record = None if masks is None else {id(r): np.asarray(m, bool)
-                                            for r, m in zip(records, masks)}
-    selected = None if masks is None else (lambda r: by_record[id(r)])
-    peaks = [peak_stroke(r, None if masks is None else by_record[id(r)]) for r in records]
+    masks = [None] * len(records) if masks is None else [np.asarray(m, bool) for m in masks]
+    by_record = {id(r): m for r, m in zip(records, masks)}
+    selected = None if masks[0] is None else (lambda r: by_record[id(r)])
+    peaks = [peak_stroke(r, m) for r, m in zip(records, masks)]
     median_peak = float(np.median(peaks))
     weights = [p / median_peak for p in peaks]
     objective = engine.Objective(records, channels, predictor(start, model, channels, supply),

@@ -299,10 +299,6 @@ class FitProblem:
         """Return [key of the record] per held-out run: runs of one record share a drift."""
         return [id(self)] * len(self.coarse_runs)
 
-    def full_heldout(self, values):
-        """Return [array] of ``values`` (a record-rate array) in each held-out run."""
-        return [values[a:b] for a, b in self.full_runs]
-
     @property
     def full_heldout_index(self):
         """Return the record-rate indices of the held-out part (all runs)."""

@@ -11,6 +11,10 @@ Two layouts (docs/diagnosis.md, "Held-out blocks"):
   cooling, where friction, hysteresis and a slower cooling show first.
 - ``'tail'``: the last ``1 - train_fraction`` of the record is held out.
 
+``choose_validation`` resolves ``'auto'`` (the diagnosis's default) from the
+inputs alone: the tail when its training part holds at least two coolings in
+every record, else the blocks.
+
 The model is simulated from the inputs over the whole record either way (an
 output-error model: no measured output enters a prediction), so a held-out block
 is predicted from the state the simulation carries into it. Times are fractions
@@ -64,14 +68,6 @@ class HoldOut:
     def runs(self, time):
         """Return [(i0, i1)]: index ranges of the contiguous held-out runs of ``time``."""
         return mask_runs(self.heldout_mask(time))
-
-    def describe(self, duration):
-        """Return e.g. 'held out 15-23, 38-46, 61-68 s (3 blocks of 10)' for a record (s)."""
-        spans = ', '.join(f'{a * duration:.0f}-{min(b, 1.0) * duration:.0f}'
-                          for a, b in self.intervals)
-        if self.layout == 'tail':
-            return f'held out the last part, {spans} s'
-        return f'held out {spans} s ({len(self.intervals)} of {N_BLOCKS} blocks)'
 
 
 def mask_runs(mask):

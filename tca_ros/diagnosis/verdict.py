@@ -62,7 +62,7 @@ def channel_stats(problems, sims, params=None, whole=False):
                                  float(r.time[a] - r.time[0]), id(p)))
             swing = max(swing, float(np.percentile(measured, 99.0)
                                      - np.percentile(measured, 1.0)))
-            index = np.concatenate([np.arange(a, b) for a, b in runs])
+            index = np.arange(r.time.size) if whole else p.full_heldout_index
             measured_all.append(measured[index])
             predicted_all.append(predicted[index])
             temp = r.temperature if r.temperature is not None else sim.temperature
