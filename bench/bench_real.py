@@ -20,7 +20,8 @@ import time
 
 import numpy as np
 
-from tca_ros.diagnosis.calibration import calibrate, format_summary
+from tca_ros.diagnosis.calibration import calibrate
+from tca_ros.diagnosis.calibration_report import format_summary
 from tca_ros.diagnosis.data import read_record
 from tca_ros.diagnosis.validation import format_table, leave_one_condition_out
 from tca_ros.model.muscle import describe_muscle, MuscleSpec

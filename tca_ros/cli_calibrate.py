@@ -61,7 +61,8 @@ def _supply(args, records):
 def cmd_calibrate(args, out):
     """Calibrate; print the summary; write the params file and the report."""
     from tca_ros.cli_common import checked_config, InputError
-    from tca_ros.diagnosis.calibration import calibrate, CalibrationError, format_summary
+    from tca_ros.diagnosis.calibration import calibrate, CalibrationError
+    from tca_ros.diagnosis.calibration_report import format_summary
     from tca_ros.diagnosis.data import read_record, record_config
     from tca_ros.model.params import dump_params, load_params
     if os.path.exists(args.out) and not args.force:

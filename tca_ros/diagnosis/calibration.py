@@ -392,27 +392,3 @@ def calibrate(records, params, model=None, fit=None, progress=False, max_nfev=40
                 fits.append(p['displacement'])
                 scores.append(normalised_rmse(r, p['displacement']))
     return result
-
-
-def format_summary(cal):
-    """Return the one-screen summary of a Calibration."""
-    power = 'nominal (on/off)' if cal.nominal_power else 'measured'
-    lines = [f'calibrated on {len(cal.records)} record(s), model {cal.model}, channels '
-             + ', '.join(cal.channels) + f'; power {power}, supply {cal.supply}',
-             f'{"parameter":<28s}{"start":>12s}{"calibrated":>13s}{"std err":>11s}  unit',
-             ]
-    for est in cal.report.estimates.values():
-        flag = '' if est.determined else '  (not determined: mostly its prior)'
-        lines.append(f'{est.name:<28s}{est.prior:>12.4g}{est.value:>13.4g}'
-                     f'{est.stderr:>11.2g}  {est.unit}{flag}')
-    if cal.nrmse:
-        lines.append('record                               nRMSE start  nRMSE calibrated')
-        for r, a, b in zip(cal.records, cal.start_nrmse, cal.nrmse):
-            name = (r.source or '?').rsplit('/', 1)[-1][-36:]
-            lines.append(f'{name:<36s}{a:>12.1%}{b:>18.1%}')
-        lines.append(f'{"median":<36s}{np.median(cal.start_nrmse):>12.1%}'
-                     f'{np.median(cal.nrmse):>18.1%}')
-    lines += [f'note: {n}' for n in cal.notes]
-    if not cal.report.success:
-        lines.append(f'warning: the fit did not converge ({cal.report.message})')
-    return '\n'.join(lines)

@@ -1,6 +1,11 @@
-"""Plots of a calibration: every record, measured vs start vs calibrated (full dynamics)."""
+"""A calibration reported: its one-screen summary, and a plot of every record.
+
+The plot shows measured vs start vs calibrated contraction (full dynamics).
+"""
 import math
 import os
+
+import numpy as np
 
 from tca_ros.diagnosis.calibration import full_predictions
 
@@ -42,3 +47,27 @@ def write_calibration_report(cal, report_dir):
     fig.savefig(path, dpi=FIGURE_DPI)
     plt.close(fig)
     return path
+
+
+def format_summary(cal):
+    """Return the one-screen summary of a Calibration."""
+    power = 'nominal (on/off)' if cal.nominal_power else 'measured'
+    lines = [f'calibrated on {len(cal.records)} record(s), model {cal.model}, channels '
+             + ', '.join(cal.channels) + f'; power {power}, supply {cal.supply}',
+             f'{"parameter":<28s}{"start":>12s}{"calibrated":>13s}{"std err":>11s}  unit',
+             ]
+    for est in cal.report.estimates.values():
+        flag = '' if est.determined else '  (not determined: mostly its prior)'
+        lines.append(f'{est.name:<28s}{est.prior:>12.4g}{est.value:>13.4g}'
+                     f'{est.stderr:>11.2g}  {est.unit}{flag}')
+    if cal.nrmse:
+        lines.append('record                               nRMSE start  nRMSE calibrated')
+        for r, a, b in zip(cal.records, cal.start_nrmse, cal.nrmse):
+            name = (r.source or '?').rsplit('/', 1)[-1][-36:]
+            lines.append(f'{name:<36s}{a:>12.1%}{b:>18.1%}')
+        lines.append(f'{"median":<36s}{np.median(cal.start_nrmse):>12.1%}'
+                     f'{np.median(cal.nrmse):>18.1%}')
+    lines += [f'note: {n}' for n in cal.notes]
+    if not cal.report.success:
+        lines.append(f'warning: the fit did not converge ({cal.report.message})')
+    return '\n'.join(lines)
