@@ -1,10 +1,11 @@
 """Figure: the diagnosis of real records (docs/fig_real_diagnosis.png).
 
-Two records of the salp mandrel-coiled TCA (../shared/realdata/salp_tca/, 1 W,
-10 g; skipped when the folder is absent), each diagnosed on its own as
+Two records of the salp mandrel-coiled TCA (../shared/realdata/salp_tca/, 10 g;
+skipped when the folder is absent), each diagnosed on its own as
 bench_diagnosis_real.py does (rod model, calibrated first on the training
 part): the measured contraction, the calibrated nominal model and the extended
-model of the diagnosis, with the verdict, what it named and the held-out RMSE.
+model of the diagnosis, with the verdict, what it named, the held-out RMSE and
+the held-out spans shaded.
 
     python bench/plot_real_diagnosis.py [--out docs] [RECORD ...]
 
@@ -22,7 +23,7 @@ import matplotlib.pyplot as plt  # noqa: E402,I100
 
 from tca_ros.diagnosis.plots import shade_heldout  # noqa: E402,I100
 
-DEFAULT = ('encoder_0.8mm_1W_encoder_4.csv', 'encoder_0.8mm_1W_encoder_3.csv')
+DEFAULT = ('encoder_0.8mm_2W_encoder_4.csv', 'encoder_0.8mm_1W_encoder_2.csv')
 
 
 def main(argv=None):
