@@ -112,7 +112,6 @@ class FitProblem:
         self.split = int(self.train_index[-1]) + 1  # the training simulation's end
         self.coarse_runs = mask_runs(held)  # (i0, i1) coarse ranges held out
         self.full_runs = self.holdout.runs(record.time)  # the same at the record's rate
-        self.full_split = self.full_runs[0][0]  # first held-out sample (record rate)
         self.channels = ['displacement']
         # white noise from second differences, at least the rounding of a quantised
         # sensor (an encoder's differences are mostly 0: their MAD would be 0)

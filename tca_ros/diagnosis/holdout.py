@@ -39,12 +39,9 @@ class HoldOut:
     intervals : tuple of (float, float)
         Held-out [start, end) of each interval as fractions (-) of the record's
         duration from its first sample; the last may end past 1.
-    layout : str
-        'blocks' or 'tail', for reports.
     """
 
     intervals: tuple
-    layout: str
 
     def heldout_mask(self, time, duration=None):
         """Return the boolean mask of held-out samples of ``time`` (s, a record's grid).
@@ -80,8 +77,9 @@ def mask_runs(mask):
 def make_holdout(train_fraction, validation=DEFAULT_VALIDATION, n_blocks=N_BLOCKS):
     """Return the HoldOut of a layout that trains on ``train_fraction`` (0-1) of a record.
 
-    'blocks': round(n_blocks (1 - train_fraction)) blocks held out (at least one),
-    at evenly spread block indices that are neither the first nor the last.
+    'blocks': round(n_blocks (1 - train_fraction)) blocks held out (at least one):
+    the last block, and the rest at evenly spread indices that are neither the
+    first nor the last.
     Raises ValueError naming the value for an unknown layout or a fraction outside
     (0, 1).
     """
@@ -91,7 +89,7 @@ def make_holdout(train_fraction, validation=DEFAULT_VALIDATION, n_blocks=N_BLOCK
     if not 0.0 < train_fraction < 1.0:
         raise ValueError(f'train_fraction = {train_fraction!r}: allowed 0 < value < 1')
     if validation == 'tail':
-        return HoldOut(((float(train_fraction), 1.0 + 1e-9),), 'tail')
+        return HoldOut(((float(train_fraction), 1.0 + 1e-9),))
     held = min(n_blocks - 1, max(1, int(round(n_blocks * (1.0 - train_fraction)))))
     # the last block (a prediction beyond the training data, as a tail tests it), the
     # rest spread over blocks 1 .. n_blocks-2 (the first block, the initial rest, trains)
@@ -100,7 +98,7 @@ def make_holdout(train_fraction, validation=DEFAULT_VALIDATION, n_blocks=N_BLOCK
                    | {n_blocks - 1})
     end = 1.0 + 1e-9  # the last sample belongs to the last block
     return HoldOut(tuple((i / n_blocks, (i + 1) / n_blocks if i < n_blocks - 1 else end)
-                         for i in index), 'blocks')
+                         for i in index))
 
 
 AUTO = 'auto'

@@ -51,7 +51,6 @@ class DiagnosisResult:
     nominal_stats: dict  # channel -> ResidualStats on the held-out part
     extended_stats: dict
     sigma: dict  # channel -> sensor noise estimate (m, K)
-    split_time: float  # s, start of the first held-out run
     verdict: str
     explanation: str
     elapsed: float  # s of wall time
@@ -279,7 +278,7 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
         extended_values=values, rounds=rounds, nominal=nominals[0], extended=extendeds[0],
         nominal_rmse=nominal_rmse, extended_rmse=extended_rmse,
         nominal_stats=nominal_stats, extended_stats=extended_stats,
-        sigma=dict(problems[0].sigma), split_time=float(record.time[problems[0].full_split]),
+        sigma=dict(problems[0].sigma),
         heldout_spans=[(float(record.time[a]), float(record.time[b - 1]))
                        for a, b in problems[0].full_runs], validation=validation,
         verdict=verdict, explanation=explanation, elapsed=0.0,

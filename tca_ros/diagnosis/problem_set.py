@@ -30,8 +30,6 @@ class FitProblemSet(FitProblem):
         self.record = first.record
         self.sample_rate = first.sample_rate
         self.sigma = first.sigma
-        self.full_split = first.full_split
-        self.holdout = first.holdout
         self.recalibration = ()
 
     @property
