@@ -121,6 +121,9 @@ class FitProblem:
             self.channels.append('temperature')
             self.sigma['temperature'] = noise_sigma(record.temperature, max(
                 TEMPERATURE_NOISE_FLOOR, quantisation_sigma(record.temperature)))
+        # the fits' residual scale of each channel: the white noise until
+        # scale_channels_by sets it from a model's residual (docs/diagnosis.md §15)
+        self.fit_scale = dict(self.sigma)
         self.measured = {c: getattr(record, c) for c in self.channels}
         self.coarse_measured = {c: self.measured[c][self.index] for c in self.channels}
         # (kind of coarse simulation, base stop) -> {channel: defect correction}
@@ -242,19 +245,39 @@ class FitProblem:
         return full
 
     # -- residuals ------------------------------------------------------------------
-    def normalised_residuals(self, prediction, index):
-        """Return the noise-normalised residuals (-) of all channels at coarse ``index``."""
+    def normalised_residuals(self, prediction, index, scale=None):
+        """Return the residuals (-) of all channels at coarse ``index``, each divided by
+        its ``scale`` ({channel: m or K}, default the sensor noise ``sigma``)."""
+        scale = scale or self.sigma
         parts = [(self.coarse_measured[c][index] - prediction[c][index])
-                 / self.sigma[c] for c in self.channels]
+                 / scale[c] for c in self.channels]
         return np.concatenate(parts)
 
     def train_residuals(self, values):
-        """Return the training residual vector (-) for ``values``."""
+        """Return the training residual vector (-) for ``values``, channels in ``fit_scale``."""
         n = self.train_index.size * len(self.channels)
         prediction = self.simulate_coarse(values, self.split)
         if prediction is None:
             return np.full(n, FAILED_RESIDUAL)
-        return self.normalised_residuals(prediction, self.train_index)
+        return self.normalised_residuals(prediction, self.train_index, self.fit_scale)
+
+    def scale_channels_by(self, values):
+        """Set each channel's fit scale to the training residual RMS of ``values`` (m, K).
+
+        Floored at the sensor noise ``sigma``. The maximum-likelihood weight of a
+        channel whose residual is mostly model error, not sensor noise: with the
+        white noise as scale, a displacement whose noise is coloured (sigma from
+        second differences sees only its white part) outweighs the temperature by
+        orders of magnitude, and a fit trades kelvins of temperature error for
+        micrometres of displacement (docs/diagnosis.md §15). The calibration engine
+        scales its channels the same way (engine.py).
+        """
+        prediction = self.simulate_coarse(values, self.split)
+        if prediction is None:
+            return
+        for c in self.channels:
+            res = self.coarse_measured[c][self.train_index] - prediction[c][self.train_index]
+            self.fit_scale[c] = max(self.sigma[c], float(np.sqrt(np.mean(res * res))))
 
     def heldout(self, values):
         """Return (cost, {channel: RMSE}, n, lag-1 autocorrelation) on the held-out part."""

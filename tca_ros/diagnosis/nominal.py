@@ -41,6 +41,8 @@ def nominal_problems(records, params_of, recalibrated, options, paths):
         for p in problems:
             p.recalibration = spaces
     problem.set_base(start_values)
+    for p in problems:
+        p.scale_channels_by(start_values)
     nominals = [p.simulate_full(start_values) for p in problems]
     return problems, problem, start_values, nominals
 
