@@ -10,7 +10,8 @@ Uses one FitProblem (fitting.py) per diagnosis (or a FitProblemSet over several 
 3. A candidate is accepted when its held-out gain is significant under the verdict's
    noise model (an offset and a drift per record, AR(p) noise; verdict.noise_model_gain)
    and at least MIN_GAIN_PERCENT; the search repeats with the added effects as the new
-   base until the held-out residual is within WHITE_SCORE of the sensor noise.
+   base until the held-out residual is within WHITE_SCORE of the sensor noise or the
+   verdict's test finds no structure left in it.
 4. When the greedy path ends with structured residuals it restarts once from the first
    round's runner-up (a beam of width two at the root); the lower held-out BIC wins.
 5. Effects made redundant by later ones are removed (backward elimination).
@@ -19,7 +20,7 @@ import dataclasses
 from dataclasses import dataclass
 import math
 
-from tca_ros.diagnosis.verdict import noise_model_gain
+from tca_ros.diagnosis.verdict import channel_stats, needs_explaining, noise_model_gain
 
 REFINE_TOP = 3  # candidates refined by least squares after screening
 POLISH_NFEV = 10  # iterations of the joint refit after an effect is added
@@ -64,7 +65,7 @@ def search_effects(problem, candidates, max_effects=MAX_EFFECTS, refine_top=REFI
                                     min_gain_percent)
     first = rounds[0].scores if rounds else []
     runner_up = next((s for s in first[1:2] if s.refined and s.significant), None)
-    if found and runner_up is not None and _final_score(problem, values) > WHITE_SCORE:
+    if found and runner_up is not None and _structure_left(problem, values):
         best_bic = _heldout_bic(problem, values, found, candidates)
         problem.set_base(nominal)
         alt_found, alt_values, alt_rounds = _greedy(problem, candidates, max_effects,
@@ -131,9 +132,26 @@ def rebase(problem, values):
         return False
 
 
-def _final_score(problem, values):
-    cost, _, n, _ = problem.heldout(values)
-    return math.sqrt(cost / n)
+def _structure_left(problem, values, score=None):
+    """Return True when the model of ``values`` leaves held-out structure.
+
+    False when its held-out RMS is within WHITE_SCORE of the sensor noise, or when
+    the verdict's own test (verdict.channel_stats: the inputs predict nothing
+    beyond the noise model) finds no channel structured at the record rate: then
+    a further effect could only fit coloured noise, drift or the power log's
+    errors, and the verdict would call the model explained as it stands
+    (docs/diagnosis.md section 15). ``score``: the held-out RMS (noise sigmas)
+    when the caller has it.
+    """
+    if score is None:
+        cost, _, n, _ = problem.heldout(values)
+        score = math.sqrt(cost / n)
+    if score <= WHITE_SCORE:
+        return False
+    problems = getattr(problem, 'problems', [problem])
+    sims = [p.simulate_full(values) for p in problems]
+    stats = channel_stats(problems, sims, [p.parameters(values) for p in problems])
+    return bool(needs_explaining(stats))
 
 
 def _heldout_bic(problem, values, found, candidates):
@@ -159,7 +177,7 @@ def _greedy(problem, candidates, max_effects, refine_top, min_gain_percent, firs
     while remaining and len(found) < max_effects:
         base_cost, base_rmse, n, _ = problem.heldout(values)
         base_score = math.sqrt(base_cost / n)
-        if found and base_score <= WHITE_SCORE:
+        if found and not _structure_left(problem, values, base_score):
             break  # the residual is noise: nothing left for a further effect to explain
         base_residuals = problem.heldout_residuals(values)
         screened = [(problem.screen(c), c) for c in remaining]
