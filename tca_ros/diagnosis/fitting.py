@@ -246,8 +246,11 @@ class FitProblem:
 
     # -- residuals ------------------------------------------------------------------
     def normalised_residuals(self, prediction, index, scale=None):
-        """Return the residuals (-) of all channels at coarse ``index``, each divided by
-        its ``scale`` ({channel: m or K}, default the sensor noise ``sigma``)."""
+        """Return the residuals (-) of all channels at coarse ``index``, each scaled.
+
+        Each channel is divided by its ``scale`` ({channel: m or K}, default the
+        sensor noise ``sigma``).
+        """
         scale = scale or self.sigma
         parts = [(self.coarse_measured[c][index] - prediction[c][index])
                  / scale[c] for c in self.channels]
