@@ -67,6 +67,39 @@ def test_power_loss_is_not_searched_beside_a_refitted_delivered_power_ratio():
     assert absorbed == [] and len(kept) == len(candidates)
 
 
+def test_the_damping_is_refitted_around_its_value_and_left_fixed_at_zero():
+    from tca_ros.diagnosis.candidates import recalibration_spaces
+    from tca_ros.model.params import load_params
+    params = load_params('free_stroke', model='cst')
+    spaces, values = recalibration_spaces(params)
+    damping = {s.name: s for s in spaces}['dynamics.damping']
+    assert (damping.low, damping.high) == pytest.approx((0.025, 1.5))  # x0.05-3 of 0.5
+    assert values['dynamics.damping'] == 0.5
+    # a params file without damping: no log scale around 0, the damping stays fixed
+    spaces, values = recalibration_spaces(params.with_values(**{'dynamics.damping': 0.0}))
+    assert 'dynamics.damping' not in values
+    assert [s.name for s in spaces] == ['fiber.untwist_gain', 'thermal.delivered_power_ratio',
+                                        'fiber.specific_heat']
+    assert all(0.0 <= s.to_unit(values[s.name]) <= 1.0 for s in spaces)
+
+
+def test_a_calibrated_params_file_without_damping_is_diagnosed(tmp_path, capsys):
+    # before the guard of recalibration_spaces: "the effect search failed ... (float
+    # division by zero)", exit status 1
+    import pathlib
+    import tca_ros
+    from tca_ros.cli import main
+    from tca_ros.model.params import dump_params, load_params
+    params = tmp_path / 'no_damping.yaml'
+    dump_params(load_params('free_stroke').with_values(**{'dynamics.damping': 0.0}),
+                str(params))
+    record = pathlib.Path(tca_ros.__file__).parent / 'data' / 'example_recording.csv'
+    code = main(['diagnose', str(record), '--calibrated', str(params), '--quiet'])
+    out = capsys.readouterr()
+    assert code == 0, out.err
+    assert 'verdict:' in out.out
+
+
 def test_a_base_the_full_dynamics_cannot_run_is_refused_and_the_old_base_kept():
     # seed 9050 with model=rod: an accepted candidate, scored on the fit grid, drove the
     # record-rate rod model past the table's 260 degC melt, and the whole diagnosis

@@ -159,12 +159,15 @@ def recalibration_spaces(params):
     """Return (ParameterSpaces, their current values) of RECALIBRATION around ``params``.
 
     Log-scaled between the factors of RECALIBRATION times the calibrated value;
-    the values are the dotted names' present values (schema units).
+    the values are the dotted names' present values (schema units). A parameter at
+    zero (a params file without damping) has no scale to refit around and stays fixed.
     """
     spaces, values = [], {}
     for name, (low, high) in RECALIBRATION.items():
         section, field_name = name.split('.')
         value = float(getattr(getattr(params, section), field_name))
+        if value <= 0.0:
+            continue
         spaces.append(ParameterSpace(name, low * value, high * value, log=True))
         values[name] = value
     return tuple(spaces), values
