@@ -73,7 +73,7 @@ def test_the_damping_is_refitted_around_its_value_and_left_fixed_at_zero():
     params = load_params('free_stroke', model='cst')
     spaces, values = recalibration_spaces(params)
     damping = {s.name: s for s in spaces}['dynamics.damping']
-    assert (damping.low, damping.high) == pytest.approx((0.025, 1.5))  # x0.05-3 of 0.5
+    assert (damping.low, damping.high) == pytest.approx((0.025, 0.5))  # x0.05-1 of 0.5
     assert values['dynamics.damping'] == 0.5
     # a params file without damping: no log scale around 0, the damping stays fixed
     spaces, values = recalibration_spaces(params.with_values(**{'dynamics.damping': 0.0}))
@@ -140,3 +140,24 @@ def test_adequate_needs_no_structure_on_the_whole_record_either():
     # with effects added the verdict is the extended model's, on the held-out part
     assert decide_verdict(['friction'], stats(True), stats(False), stats(True))[0] == \
         'explained'
+
+
+def test_a_lag_effect_is_also_screened_with_the_dampings_lag_handed_over():
+    # the calibration takes a non-viscous lag up as damping (b_t / k, s): a lag effect is
+    # also screened with a tenth of the damping and the lag that removes as its start
+    from tca_ros.diagnosis.calibration import coil_stiffness
+    from tca_ros.diagnosis.candidates import recalibration_spaces
+    from tca_ros.diagnosis.fitting import FitProblem
+    from tca_ros.diagnosis.generator import make_synthetic_record
+    from tca_ros.diagnosis.search import _lag_exchange, EXCHANGE_FACTOR
+    from tca_ros.model.params import load_params
+    record = make_synthetic_record(5, effects=None, duration=60.0, sample_rate=10.0).record
+    params = load_params('free_stroke', model='cst').with_values(**{'dynamics.damping': 20.0})
+    problem = FitProblem(record, params, model='cst')
+    assert _lag_exchange(problem, {}) == ((), ())  # the damping not refitted: nothing
+    problem.recalibration, values = recalibration_spaces(params)
+    (base,), ((lag,),) = _lag_exchange(problem, values)
+    assert base == {'dynamics.damping': pytest.approx(EXCHANGE_FACTOR * 20.0)}
+    k = coil_stiffness(params, 'cst')
+    assert k > 0.0
+    assert lag == pytest.approx((1.0 - EXCHANGE_FACTOR) * 20.0 / k)

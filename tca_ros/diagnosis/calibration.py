@@ -68,17 +68,24 @@ def damping_bound(params, model=None):
     coil's stiffness at ambient under the start's load, or ten times the
     start's damping if that is larger; at least 1 N s/m.
     """
+    crit = critical_damping(coil_stiffness(params, model), params.dynamics.mass)
+    return max(MAX_DAMPING_RATIO * crit, 10.0 * params.dynamics.damping, 1.0)
+
+
+def coil_stiffness(params, model=None):
+    """Return the coil's axial stiffness k (N/m) at ambient under ``params``' load.
+
+    A central difference of the static elongation; 0 where the statics fail.
+    """
     statics = make_statics(params, model)
     load, ambient = params.dynamics.load, params.thermal.ambient_temperature
     step = max(1e-3 * abs(load), 1e-4)
     try:
         y0 = static_elongation(statics, max(load - step, 0.0), ambient)
         y1 = static_elongation(statics, load + step, ambient)
-        stiffness = (load + step - max(load - step, 0.0)) / (y1 - y0) if y1 > y0 else 0.0
     except (ValueError, ArithmeticError):
-        stiffness = 0.0
-    crit = critical_damping(stiffness, params.dynamics.mass)
-    return max(MAX_DAMPING_RATIO * crit, 10.0 * params.dynamics.damping, 1.0)
+        return 0.0
+    return (load + step - max(load - step, 0.0)) / (y1 - y0) if y1 > y0 else 0.0
 
 
 def _priors(params, nominal_power, has_resistance, r0_measured=None, supply='power',

@@ -76,7 +76,7 @@ _SPACES = {
 #: kelvin), delivered power (steady rise), specific heat (time constant) and damping
 #: (a lag the calibration may have given it; docs/diagnosis.md section 15).
 RECALIBRATION = {'fiber.untwist_gain': (0.6, 1.6), 'thermal.delivered_power_ratio': (0.7, 1.4),
-                 'fiber.specific_heat': (0.6, 1.6), 'dynamics.damping': (0.05, 3.0)}
+                 'fiber.specific_heat': (0.6, 1.6), 'dynamics.damping': (0.05, 1.0)}
 #: Effects that are one of the RECALIBRATION parameters under another name: a power
 #: loss eta scales the heating power as the delivered power ratio r does ((1 - eta) r P,
 #: effects.heating_power), so once r is fitted, eta is not identifiable, never a cause.

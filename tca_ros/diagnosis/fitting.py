@@ -335,31 +335,37 @@ class FitProblem:
         return self.holdout.train_mask(self.record.time)
 
     # -- fitting --------------------------------------------------------------------
-    def screen(self, candidate):
-        """Return [(train cost, start values, cost per channel)], best first.
+    def screen(self, candidate, base_starts=()):
+        """Return [(train cost, start values, cost per channel, base start)], best first.
 
-        Costs are sums of squared noise-normalised training residuals (-); the
-        per-channel costs follow ``self.channels``.
+        Each start is tried on the base and on the base with each dict of
+        ``base_starts`` ({dotted name: value} of recalibrated parameters) applied;
+        the plain base's base start is {}. Costs are sums of squared normalised
+        training residuals (-); the per-channel costs follow ``self.channels``.
         """
         out = []
         for start in candidate.starts:
-            values = dict(self.base_values)
-            values.update({s.name: v for s, v in zip(candidate.spaces, start)})
-            self.progress.label = f'screen {candidate.name}'
-            r = self.train_residuals(values)
-            per_channel = tuple(float(part @ part)
-                                for part in r.reshape(len(self.channels), -1))
-            out.append((float(r @ r), start, per_channel))
+            for base_start in ({},) + tuple(base_starts):
+                values = {**self.base_values, **base_start}
+                values.update({s.name: v for s, v in zip(candidate.spaces, start)})
+                self.progress.label = f'screen {candidate.name}'
+                r = self.train_residuals(values)
+                per_channel = tuple(float(part @ part)
+                                    for part in r.reshape(len(self.channels), -1))
+                out.append((float(r @ r), start, per_channel, base_start))
         return sorted(out, key=lambda item: item[0])
 
-    def fit(self, candidate, start, refine=True, free=(), max_nfev=MAX_NFEV):
+    def fit(self, candidate, start, refine=True, free=(), max_nfev=MAX_NFEV, base_start=None):
         """Fit ``candidate`` from ``start`` (values per space); return a FitResult.
 
-        ``free`` lists further ParameterSpaces (already in the base) refitted jointly.
+        ``free`` lists further ParameterSpaces (already in the base) refitted jointly,
+        each started from ``base_start`` ({dotted name: value}) where that has it,
+        else from the base.
         """
         spaces = tuple(candidate.spaces) + tuple(free)
         x0 = [s.to_unit(v) for s, v in zip(candidate.spaces, start)]
-        x0 += [s.to_unit(self.base_values[s.name]) for s in free]
+        first = {**self.base_values, **(base_start or {})}
+        x0 += [s.to_unit(first[s.name]) for s in free]
 
         def values_at(z):
             values = dict(self.base_values)

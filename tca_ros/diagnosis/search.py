@@ -28,6 +28,10 @@ PRUNE_NFEV = 4  # iterations of the brief refit when an effect is tentatively re
 MIN_GAIN_PERCENT = 1.0  # held-out RMS gain below this is not worth a parameter
 MAX_EFFECTS = 3  # greedy additions
 WHITE_SCORE = 1.05  # held-out RMS (noise sigmas) at which the search stops
+#: effects that delay the response as a calibrated damping b_t does (b_t / k is a lag
+#: of seconds); each is also screened with the damping handed over to it
+LAG_EFFECTS = ('second_thermal_lag', 'sensor_lag', 'dead_time')
+EXCHANGE_FACTOR = 0.1  # the damping a lag effect is also screened with, x the base's
 
 
 @dataclass
@@ -132,6 +136,30 @@ def rebase(problem, values):
         return False
 
 
+def _lag_exchange(problem, values):
+    """Return (base starts, effect starts) that hand the damping's lag to a lag effect.
+
+    Calibrate-first fits the damping on the training part, and a lag that is not
+    viscous (a second thermal time constant, a dead time, a sensor lag) is taken
+    up as damping b_t, b_t / k being a lag of seconds (docs/diagnosis.md section
+    15). Screened on that base, a lag effect only adds to a lag already there and
+    its fit stays in that basin. So lag effects are also screened with the damping
+    at EXCHANGE_FACTOR of the base's (the base start) and with the lag that takes
+    away, (1 - EXCHANGE_FACTOR) b_t / k in s, as a further start of the effect.
+    Returns ((), ()) when the damping is not refitted or the coil has no stiffness.
+    """
+    from tca_ros.diagnosis.calibration import coil_stiffness
+    space = next((s for s in problem.recalibration if s.name == 'dynamics.damping'), None)
+    if space is None:
+        return (), ()
+    damping = values[space.name]
+    stiffness = coil_stiffness(problem.parameters(values), problem.model)
+    if not stiffness > 0.0:
+        return (), ()
+    lowered = max(space.low, EXCHANGE_FACTOR * damping)
+    return ({space.name: lowered},), (((damping - lowered) / stiffness,),)
+
+
 def _structure_left(problem, values, score=None):
     """Return True when the model of ``values`` leaves held-out structure.
 
@@ -180,7 +208,10 @@ def _greedy(problem, candidates, max_effects, refine_top, min_gain_percent, firs
         if found and not _structure_left(problem, values, base_score):
             break  # the residual is noise: nothing left for a further effect to explain
         base_residuals = problem.heldout_residuals(values)
-        screened = [(problem.screen(c), c) for c in remaining]
+        exchange, handed = _lag_exchange(problem, values)
+        screened = [(problem.screen(dataclasses.replace(c, starts=c.starts + handed),
+                                    exchange) if c.name in LAG_EFFECTS and exchange
+                     else problem.screen(c), c) for c in remaining]
         screened.sort(key=lambda item: item[0][0][0])
         scores = []
         # forward selection with refit: the effects already found are refitted jointly
@@ -189,7 +220,8 @@ def _greedy(problem, candidates, max_effects, refine_top, min_gain_percent, firs
         free = tuple(s for name in found for s in spaces_of[name]) + problem.recalibration
 
         def evaluate(trials, cand, refine):
-            fit = problem.fit(cand, trials[0][1], refine=refine, free=free if refine else ())
+            fit = problem.fit(cand, trials[0][1], refine=refine, free=free if refine else (),
+                              base_start=trials[0][3])
             score = problem.score(fit, refine)
             score.criterion = noise_model_gain(problem, base_residuals, score.values,
                                                cand.n_params)
