@@ -137,7 +137,7 @@ def rebase(problem, values):
 
 
 def _lag_exchange(problem, values):
-    """Return (base starts, effect starts) that hand the damping's lag to a lag effect.
+    """Return (base starts, lag start) that hand the damping's lag to a lag effect.
 
     Calibrate-first fits the damping on the training part, and a lag that is not
     viscous (a second thermal time constant, a dead time, a sensor lag) is taken
@@ -146,18 +146,26 @@ def _lag_exchange(problem, values):
     its fit stays in that basin. So lag effects are also screened with the damping
     at EXCHANGE_FACTOR of the base's (the base start) and with the lag that takes
     away, (1 - EXCHANGE_FACTOR) b_t / k in s, as a further start of the effect.
-    Returns ((), ()) when the damping is not refitted or the coil has no stiffness.
+    Returns (base starts, lag in s), or ((), None) when the damping is not
+    refitted or the coil has no stiffness.
     """
     from tca_ros.diagnosis.calibration import coil_stiffness
     space = next((s for s in problem.recalibration if s.name == 'dynamics.damping'), None)
     if space is None:
-        return (), ()
+        return (), None
     damping = values[space.name]
     stiffness = coil_stiffness(problem.parameters(values), problem.model)
     if not stiffness > 0.0:
-        return (), ()
+        return (), None
     lowered = max(space.low, EXCHANGE_FACTOR * damping)
-    return ({space.name: lowered},), (((damping - lowered) / stiffness,),)
+    return ({space.name: lowered},), (damping - lowered) / stiffness
+
+
+def _with_start(candidate, value):
+    """Return the one-parameter ``candidate`` with ``value`` (clipped to its range) as a start."""
+    space, = candidate.spaces
+    return dataclasses.replace(candidate, starts=candidate.starts + (
+        (min(max(value, space.low), space.high),),))
 
 
 def _structure_left(problem, values, score=None):
@@ -208,10 +216,10 @@ def _greedy(problem, candidates, max_effects, refine_top, min_gain_percent, firs
         if found and not _structure_left(problem, values, base_score):
             break  # the residual is noise: nothing left for a further effect to explain
         base_residuals = problem.heldout_residuals(values)
-        exchange, handed = _lag_exchange(problem, values)
-        screened = [(problem.screen(dataclasses.replace(c, starts=c.starts + handed),
-                                    exchange) if c.name in LAG_EFFECTS and exchange
-                     else problem.screen(c), c) for c in remaining]
+        lags = [c for c in remaining if c.name in LAG_EFFECTS]
+        exchange, lag = _lag_exchange(problem, values) if lags else ((), None)
+        screened = [(problem.screen(_with_start(c, lag), exchange)
+                     if c in lags and exchange else problem.screen(c), c) for c in remaining]
         screened.sort(key=lambda item: item[0][0][0])
         scores = []
         # forward selection with refit: the effects already found are refitted jointly
