@@ -278,8 +278,9 @@ class FitProblem:
         prediction = self.simulate_coarse(values, self.split)
         if prediction is None:
             return
-        for c in self.channels:
-            res = self.coarse_measured[c][self.train_index] - prediction[c][self.train_index]
+        raw = self.normalised_residuals(prediction, self.train_index,
+                                        dict.fromkeys(self.channels, 1.0))
+        for c, res in zip(self.channels, raw.reshape(len(self.channels), -1)):
             self.fit_scale[c] = max(self.sigma[c], float(np.sqrt(np.mean(res * res))))
 
     def heldout(self, values):
