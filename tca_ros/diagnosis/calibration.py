@@ -18,6 +18,10 @@ delivered_power_ratio       -       thermal.delivered_power_ratio (nominal power
 resistance                  ohm     electrical.resistance, R0 (with a resistance column)
 resistance_temperature_coef 1/K     electrical.temperature_coefficient
 resistance_strain_coef      -       electrical.strain_coefficient
+effects.<name>              schema  a catalogue effect's parameter (model/effects.py),
+                                    when named in ``fit``: the nominal model and one
+                                    effect calibrated together (the diagnosis's joint
+                                    calibration, docs/diagnosis.md section 16)
 =========================== ======= ==================================================
 
 The time constant and steady rise are fitted instead of h and c_p because a
@@ -36,6 +40,7 @@ import numpy as np
 
 from tca_ros.diagnosis import engine
 from tca_ros.diagnosis.progress import Progress
+from tca_ros.model.effects import CATALOGUE
 from tca_ros.model.end_motion import critical_damping
 from tca_ros.model.kinetostatics import static_elongation
 from tca_ros.model.quasistatic import make_statics, QuasiStaticPlant
@@ -47,6 +52,10 @@ DEFAULT_FIT = ('thermal_time_constant', 'steady_rise', 'actuation_gain', 'stiffn
                'resistance_temperature_coef', 'resistance_strain_coef')
 PEAK_PERCENTILE = 99.5  # % of a record's contraction taken as its peak (spike-robust)
 OPTIONAL_FIT = ('friction_force',)  # fitted when named in ``fit`` (a diagnosis effect else)
+#: catalogue effect parameters a calibration fits when named in ``fit`` (dotted names)
+EFFECT_PARAMETERS = tuple(n for names in CATALOGUE.values() for n in names
+                          if n.startswith('effects.'))
+EFFECT_PRIOR_SPREAD = 10.0  # effect priors' standard deviation, x the parameter's range
 DISPLACEMENT_SCALE_FLOOR = 1e-6  # m, residual scale floor (a good encoder's resolution)
 MIN_PHYSICS_RATE_HZ = 200.0  # Hz, full-dynamics check
 NOMINAL_LEVELS = 2  # a power column with at most this many distinct values is nominal
@@ -135,6 +144,32 @@ def _priors(params, nominal_power, has_resistance, r0_measured=None, supply='pow
     return {p.name: p for p in out}
 
 
+def _effect_priors(names, params):
+    """Return {dotted name: engine.Parameter} of the catalogue effect parameters in ``names``.
+
+    Bounds and scale (linear or log) are the diagnosis's search space of each
+    (candidates.effect_space); the prior is centred on the start ``params``' value
+    (the middle screening start where that is the effect's neutral value, which a
+    fit started at a bound could not leave) and EFFECT_PRIOR_SPREAD times the range
+    wide: nearly flat, so the records decide.
+    """
+    from tca_ros.diagnosis.candidates import effect_space
+    out = {}
+    for name in names:
+        if name not in EFFECT_PARAMETERS:
+            continue
+        space, starts = effect_space(name)
+        section, field_name = name.split('.')
+        value = float(getattr(getattr(params, section), field_name))
+        if not space.low < value < space.high:
+            value = starts[len(starts) // 2]
+        spread = EFFECT_PRIOR_SPREAD * (math.log(space.high / space.low) if space.log
+                                        else space.high - space.low)
+        out[name] = engine.Parameter(name, space.unit, value, space.low, space.high, spread,
+                                     log=space.log, description=f'catalogue effect {name}')
+    return out
+
+
 def apply_calibration(params, values):
     """Return ``params`` with calibration ``values`` ({name: value}) written in.
 
@@ -162,6 +197,7 @@ def apply_calibration(params, values):
     for name, dotted in simple.items():
         if name in values:
             flat[dotted] = values[name]
+    flat.update({k: v for k, v in values.items() if k in EFFECT_PARAMETERS})
     if 'stiffness_scale' in values:
         s = values['stiffness_scale']
         flat['moduli.youngs_modulus'] = params.moduli.youngs_modulus * s
@@ -323,14 +359,15 @@ def full_nrmse(params, records, model, supply='power'):
 
 
 def calibrate(records, params, model=None, fit=None, progress=False, max_nfev=40,
-              check=True, supply='power', masks=None):
+              check=True, supply='power', masks=None, start_values=None):
     """Calibrate ``params`` (start TcaParams) jointly on ``records``; return a Calibration.
 
     ``fit``: names to fit (default DEFAULT_FIT, restricted to what the records
     can inform); ``check``: score start and result with the full dynamics (18);
     ``masks``: per record a boolean array of the samples fitted (default all;
     the records are simulated whole either way, e.g. a diagnosis's training
-    blocks).
+    blocks); ``start_values``: {name: value} the fit starts from (default the
+    priors; clipped to each parameter's bounds), e.g. an earlier calibration's.
     """
     if not records:
         raise CalibrationError('records: none given')
@@ -347,10 +384,16 @@ def calibrate(records, params, model=None, fit=None, progress=False, max_nfev=40
     priors = _priors(start, nominal, 'resistance' in channels, r0, supply,
                      damping_bound(start, model))
     names = list(fit) if fit else list(DEFAULT_FIT)
-    unknown = [n for n in names if n not in DEFAULT_FIT + OPTIONAL_FIT]
+    unknown = [n for n in names if n not in DEFAULT_FIT + OPTIONAL_FIT + EFFECT_PARAMETERS]
     if unknown:
         raise CalibrationError(f'--fit {unknown[0]!r}: unknown; allowed: '
-                               + ', '.join(DEFAULT_FIT + OPTIONAL_FIT))
+                               + ', '.join(DEFAULT_FIT + OPTIONAL_FIT)
+                               + ', or a catalogue effect parameter ('
+                               + ', '.join(EFFECT_PARAMETERS) + ')')
+    if 'friction_force' in names and 'effects.friction_force' in names:
+        raise CalibrationError("--fit 'effects.friction_force': the same parameter as "
+                               "'friction_force'; name it once")
+    priors.update(_effect_priors(names, start))
     parameters = [priors[n] for n in names if n in priors]
     if not nominal:
         notes.append('power varies beyond on/off: taken as measured, '
@@ -368,7 +411,9 @@ def calibrate(records, params, model=None, fit=None, progress=False, max_nfev=40
                'resistance': 0.01 * r0}
     options = dict(initial_scale=initial, max_nfev=max_nfev, progress=bar,
                    scale_floor={'displacement': DISPLACEMENT_SCALE_FLOOR})
-    report = engine.fit(objective, parameters, **options)
+    first = {p.name: min(max(start_values[p.name], p.low), p.high) for p in parameters
+             if p.name in (start_values or {})}
+    report = engine.fit(objective, parameters, start=first, **options)
     # defect correction: refit with the full dynamics' difference at the estimate
     # added, so the result fits the model the user runs, not its reduction
     try:

@@ -71,6 +71,16 @@ _SPACES = {
     'effects.friction_force': (ParameterSpace('effects.friction_force', 0.0, 0.1),
                                (0.005, 0.02, 0.05)),
 }
+
+
+def effect_space(name):
+    """Return (ParameterSpace, screening starts) of a catalogue effect parameter (dotted).
+
+    Raises KeyError for a name that no catalogue effect owns.
+    """
+    return _SPACES[name]
+
+
 #: Nominal parameters a recalibration may move while an effect is fitted: name ->
 #: (factor below, factor above) the calibrated value. Actuation gain (stroke per
 #: kelvin), delivered power (steady rise), specific heat (time constant) and damping

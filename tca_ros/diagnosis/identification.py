@@ -11,12 +11,14 @@ import time as wallclock
 from tca_ros.diagnosis.candidates import ABSORBED, absorbed_candidates, parameters_at_bounds
 from tca_ros.diagnosis.data import DataError, record_config
 from tca_ros.diagnosis.holdout import AUTO, choose_validation, DEFAULT_VALIDATION
+from tca_ros.diagnosis.joint import beats_nominal, best_joint, joint_calibrations, JOINT_NFEV, \
+    joint_order
 from tca_ros.diagnosis.nominal import calibrate_training_part, candidates_of, nominal_problems, \
     read_any, record_nominal
 from tca_ros.diagnosis.progress import Progress
 from tca_ros.diagnosis.search import MIN_GAIN_PERCENT, search_effects
 from tca_ros.diagnosis.verdict import channel_stats, decide_verdict, gain, \
-    heldout_gain_over, needs_explaining, NOTHING_TO_EXPLAIN, pooled_heldout_rmse
+    needs_explaining, NOTHING_TO_EXPLAIN, pooled_heldout_rmse
 from tca_ros.model.params import SPECS
 
 VERDICTS = ('explained', 'adequate', 'unexplained')
@@ -177,7 +179,7 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
     model = model or load_params(nominal_source).model
     # the extended params file must name the model its effects were fitted with
     base = load_params(nominal_source, model=model)
-    params_of = [record_nominal(base, r) for r in records]
+    params_of = start_params = [record_nominal(base, r) for r in records]
     fraction = train_fraction or fitting.TRAIN_FRACTION
     validation = choose_validation(records, fraction, validation)
     cal, notes = None, []
@@ -239,8 +241,8 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
         values = values if effects else dict(start_values)  # not the round-one polish
         extendeds = [p.simulate_full(values) for p in problems] if effects else nominals
         added = len([k for k in values if k not in start_values])
-        if effects and not _beats_nominal(problems, nominals, extendeds, added,
-                                          nominal_rmse):
+        if effects and not beats_nominal(problems, nominals, extendeds, added,
+                                         nominal_rmse):
             # each effect was accepted against the round's base (the nominal with its
             # calibration refitted); the whole extension must beat the calibrated
             # nominal itself by the search's own rule, or it is no improvement to report
@@ -259,6 +261,27 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
                                    [p.parameters(values) for p in problems])
     verdict, explanation = decide_verdict(effects, nominal_stats, extended_stats,
                                           whole_stats)
+    if verdict == 'unexplained' and cal is not None and rounds:
+        # the search's nominal refit is narrow: calibrate its first round's best
+        # candidates together with the nominal parameters (joint.py)
+        def calibrate_with(fit, start_values):
+            return calibrate_training_part(records, start_params, model, fraction, supply,
+                                           False, validation, fit=fit,
+                                           start_values=start_values, max_nfev=JOINT_NFEV)
+        fits = joint_calibrations(calibrate_with, problems, nominals, cal, candidates,
+                                  joint_order(rounds, candidates))
+        joint = best_joint(fits, problems, nominals, nominal_rmse)
+        if joint is not None:
+            left = f' with {" + ".join(effects)}' if effects else ''
+            notes.append(f'the search left structure{left}; {joint.name}, calibrated '
+                         'jointly with all the nominal parameters on the training part, '
+                         'explains it (docs/diagnosis.md section 16)')
+            effects, values, extendeds = [joint.name], joint.values, joint.sims
+            extended_rmse = pooled_heldout_rmse(problems, extendeds, channels)
+            extended_stats = channel_stats(problems, extendeds,
+                                           [p.parameters(values) for p in problems])
+            verdict, explanation = decide_verdict(effects, nominal_stats, extended_stats,
+                                                  whole_stats)
     pinned = parameters_at_bounds(effects, values, candidates)
     if verdict == 'explained' and pinned:
         verdict = 'unexplained'
@@ -288,21 +311,3 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
         from tca_ros.diagnosis.report import write_report
         write_report(result, report_dir)
     return result
-
-
-def _beats_nominal(problems, nominals, extendeds, added, nominal_rmse):
-    """Return True when the extension passes the search's acceptance against the nominal.
-
-    As each candidate is accepted (search._greedy): a positive penalised held-out
-    gain under the verdict's noise model (verdict.heldout_gain_over) and a
-    held-out RMS gain of at least MIN_GAIN_PERCENT, channels weighted by their
-    noise sigma, here on the record-rate simulations of both whole models.
-    ``nominal_rmse``: the nominal's pooled held-out RMSE ({channel: m or K}).
-    """
-    if heldout_gain_over(problems, nominals, extendeds, added) <= 0.0:
-        return False
-    sigma, channels = problems[0].sigma, problems[0].channels
-    after = pooled_heldout_rmse(problems, extendeds, channels)
-    score = [math.sqrt(sum((rmse[c] / sigma[c]) ** 2 for c in channels))
-             for rmse in (nominal_rmse, after)]
-    return score[1] <= (1.0 - MIN_GAIN_PERCENT / 100.0) * score[0]

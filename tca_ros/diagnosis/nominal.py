@@ -82,11 +82,12 @@ def candidates_of(records, params, model, problems, nominals):
 
 
 def calibrate_training_part(records, params_of, model, fraction, supply, progress,
-                            validation=DEFAULT_VALIDATION):
+                            validation=DEFAULT_VALIDATION, **calibrate_options):
     """Return (Calibration or None, [params per record], note): nominal fitted on training.
 
     Each record is simulated whole on a grid of about CALIBRATION_RATE_HZ; only
-    its training samples (holdout.py) enter the fit.
+    its training samples (holdout.py) enter the fit. ``calibrate_options``
+    (fit, start_values, max_nfev) go to calibration.calibrate.
     """
     from tca_ros.diagnosis.holdout import make_holdout
     from tca_ros.diagnosis.calibration import calibrate, CalibrationError, record_params
@@ -97,7 +98,7 @@ def calibrate_training_part(records, params_of, model, fraction, supply, progres
     masks = [holdout.train_mask(c.time, r.duration) for c, r in zip(coarse, records)]
     try:
         cal = calibrate(coarse, params_of[0], model=model, check=False, supply=supply,
-                        progress=progress, masks=masks)
+                        progress=progress, masks=masks, **calibrate_options)
     except (CalibrationError, QuasiStaticUnsupported, ValueError, ArithmeticError) as exc:
         return None, params_of, f'calibration skipped ({str(exc).splitlines()[0]})'
     calibrated = [record_params(cal.params, r).with_values(model=model) for r in records]

@@ -1,0 +1,135 @@
+"""Calibrate the nominal model jointly with one candidate: the search's second opinion.
+
+Calibrate-first fits the nominal parameters on the training part before any
+effect is tried, and an effect in the data is then partly taken up by them: a
+creeping coil calibrates as a coil four to seven times too soft, a second
+thermal lag as a large damping. The greedy search (search.py) refits only the
+gain, the delivered power, the specific heat and the damping with each
+candidate, within narrow factors of their calibrated values, so it cannot give
+back what the stiffness or the time constant absorbed. When its result leaves
+structure, each candidate of its first round is calibrated here together with
+the nominal parameters, with the calibration's own priors and bounds
+(calibration.calibrate with the effect's parameters in ``fit``), on the same
+training part. A candidate is taken only when its joint calibration passes the
+search's acceptance against the calibrated nominal model (the penalised held-out
+gain under the verdict's noise model, at least MIN_GAIN_PERCENT), leaves no
+structure by the verdict's test and has no parameter at the end of its range:
+a cleaner explanation than the search's, or none (docs/diagnosis.md section 16).
+"""
+from dataclasses import dataclass
+import math
+
+from tca_ros.diagnosis.candidates import parameters_at_bounds
+from tca_ros.diagnosis.search import LAG_EFFECTS, MIN_GAIN_PERCENT
+from tca_ros.diagnosis.verdict import channel_stats, heldout_gain_over, needs_explaining, \
+    pooled_heldout_rmse
+from tca_ros.model.params import to_flat_dict
+
+JOINT_TOP = 3  # candidates of the search's first round calibrated jointly, best first
+JOINT_NFEV = 20  # least-squares iterations of each joint calibration (per pass)
+
+
+@dataclass
+class JointFit:
+    """One candidate calibrated jointly with the nominal parameters."""
+
+    name: str
+    values: dict  # dotted name -> value: what differs from the calibrated nominal
+    n_params: int  # the candidate's own parameters
+    sims: list  # per record, the full dynamics (18) at the record's samples
+    criterion: float  # penalised held-out gain over the calibrated nominal (-)
+    explained: bool  # the verdict's test finds no structure left
+    pinned: list  # (name, value, bound) of its parameters at the end of their range
+
+
+def beats_nominal(problems, nominals, extendeds, added, nominal_rmse):
+    """Return True when the extension passes the search's acceptance against the nominal.
+
+    As each candidate is accepted (search._greedy): a positive penalised held-out
+    gain under the verdict's noise model (verdict.heldout_gain_over) and a
+    held-out RMS gain of at least MIN_GAIN_PERCENT, channels weighted by their
+    noise sigma, here on the record-rate simulations of both whole models.
+    ``nominal_rmse``: the nominal's pooled held-out RMSE ({channel: m or K}).
+    """
+    if heldout_gain_over(problems, nominals, extendeds, added) <= 0.0:
+        return False
+    sigma, channels = problems[0].sigma, problems[0].channels
+    after = pooled_heldout_rmse(problems, extendeds, channels)
+    score = [math.sqrt(sum((rmse[c] / sigma[c]) ** 2 for c in channels))
+             for rmse in (nominal_rmse, after)]
+    return score[1] <= (1.0 - MIN_GAIN_PERCENT / 100.0) * score[0]
+
+
+def changed_values(params, reference):
+    """Return {dotted name: value} of the scalar entries where ``params`` differs."""
+    new, old = to_flat_dict(params), to_flat_dict(reference)
+    return {k: v for k, v in new.items()
+            if isinstance(v, float) and k in old and v != old[k]}
+
+
+def joint_order(rounds, candidates, top=JOINT_TOP):
+    """Return the candidates to calibrate jointly: the first round's best ``top``.
+
+    By the first round's held-out score (each candidate refitted with the
+    narrow recalibration), best first; only catalogue effects whose parameters
+    a calibration can fit (not coil contact, whose stop is geometry). When a lag
+    effect is among them, the other lag effects follow: the three delay the
+    response alike, and which one the data ask for shows only once the damping
+    and the time constant that took up the lag are free again.
+    """
+    first = next((r for r in rounds if r is not None), None)
+    if first is None:
+        return []
+    fittable = {c.name: c for c in candidates
+                if all(s.name.startswith('effects.') for s in c.spaces)}
+    ranked = [fittable[s.name] for s in first.scores if s.name in fittable]
+    order = ranked[:top]
+    if any(c.name in LAG_EFFECTS for c in order):
+        order += [c for c in ranked[top:] if c.name in LAG_EFFECTS]
+    return order
+
+
+def joint_calibrations(calibrate_with, problems, nominals, cal, candidates, order):
+    """Return the JointFits of the candidates in ``order`` (a list, possibly empty).
+
+    ``calibrate_with(fit, start_values)`` runs the training-part calibration
+    (nominal.calibrate_training_part) and returns (Calibration or None, [params
+    per record], note); ``cal`` is the calibrated nominal's Calibration,
+    ``nominals`` its simulations.
+    """
+    fitted = list(cal.report.estimates)
+    out = []
+    for cand in order:
+        own = [s.name for s in cand.spaces]
+        starts = {s.name: cand.starts[len(cand.starts) // 2][i]
+                  for i, s in enumerate(cand.spaces)}
+        try:
+            joint, _, _ = calibrate_with(fitted + own, {**cal.report.values, **starts})
+        except (ValueError, ArithmeticError):
+            continue
+        if joint is None:
+            continue
+        values = changed_values(joint.params, cal.params)
+        try:
+            sims = [p.simulate_full(values) for p in problems]
+        except (ValueError, ArithmeticError):  # the full dynamics cannot run it
+            continue
+        stats = channel_stats(problems, sims, [p.parameters(values) for p in problems])
+        out.append(JointFit(
+            name=cand.name, values=values, n_params=len(own), sims=sims,
+            criterion=heldout_gain_over(problems, nominals, sims, len(own)),
+            explained=not needs_explaining(stats),
+            pinned=parameters_at_bounds([cand.name], values, candidates)))
+    return out
+
+
+def best_joint(fits, problems, nominals, nominal_rmse):
+    """Return the JointFit that explains the data best, or None.
+
+    Taken only when it beats the calibrated nominal by the search's rule, leaves
+    no structure and has no parameter at the end of its range; among those, the
+    largest penalised held-out gain.
+    """
+    ok = [f for f in fits if f.explained and not f.pinned and f.criterion > 0.0
+          and beats_nominal(problems, nominals, f.sims, f.n_params, nominal_rmse)]
+    return max(ok, key=lambda f: f.criterion) if ok else None
