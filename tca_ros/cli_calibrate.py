@@ -27,7 +27,9 @@ def add_parser(subparsers):
     sp.add_argument('--out', required=True, help='calibrated params file to write (YAML)')
     sp.add_argument('--force', action='store_true', help='overwrite --out if it exists')
     sp.add_argument('--fit', default=','.join(DEFAULT_FIT),
-                    help='comma-separated calibration parameters to fit')
+                    help='comma-separated calibration parameters to fit; also friction_force '
+                         'or a catalogue effect parameter (e.g. effects.creep_compliance), '
+                         'fitted with the nominal ones')
     sp.add_argument('--model', choices=MODELS, default=None,
                     help="kinetostatic model (default: the config's model)")
     sp.add_argument('--supply', choices=SUPPLIES, default=None,

@@ -265,6 +265,8 @@ class Calibration:
     start_fit: list = field(default_factory=list)  # per record: full-dynamics contraction (m)
     fit: list = field(default_factory=list)  # the same, calibrated
     notes: list = field(default_factory=list)
+    #: per record {channel: full dynamics - quasi-static} the final fit used, or None
+    corrections: list = field(default=None, repr=False)
 
     def to_json(self):
         """Return a JSON-ready summary."""
@@ -359,7 +361,7 @@ def full_nrmse(params, records, model, supply='power'):
 
 
 def calibrate(records, params, model=None, fit=None, progress=False, max_nfev=40,
-              check=True, supply='power', masks=None, start_values=None):
+              check=True, supply='power', masks=None, start_values=None, corrections=None):
     """Calibrate ``params`` (start TcaParams) jointly on ``records``; return a Calibration.
 
     ``fit``: names to fit (default DEFAULT_FIT, restricted to what the records
@@ -367,7 +369,11 @@ def calibrate(records, params, model=None, fit=None, progress=False, max_nfev=40
     ``masks``: per record a boolean array of the samples fitted (default all;
     the records are simulated whole either way, e.g. a diagnosis's training
     blocks); ``start_values``: {name: value} the fit starts from (default the
-    priors; clipped to each parameter's bounds), e.g. an earlier calibration's.
+    priors; clipped to each parameter's bounds), e.g. an earlier calibration's;
+    ``corrections``: an earlier calibration's defect corrections (its
+    ``corrections``), used as they are in a single fit instead of being computed
+    at a first estimate (one fit and no full-dynamics run: the joint calibrations
+    of a diagnosis start next to that estimate).
     """
     if not records:
         raise CalibrationError('records: none given')
@@ -404,7 +410,8 @@ def calibrate(records, params, model=None, fit=None, progress=False, max_nfev=40
     peaks = [peak_stroke(r, m) for r, m in zip(records, masks)]
     median_peak = float(np.median(peaks))
     weights = [p / median_peak for p in peaks]
-    objective = engine.Objective(records, channels, predictor(start, model, channels, supply),
+    objective = engine.Objective(records, channels,
+                                 predictor(start, model, channels, supply, corrections),
                                  weights=weights, mask=selected)
     bar = Progress(progress, total=(len(parameters) + 1) * 24)
     initial = {'displacement': 0.05 * median_peak, 'temperature': 2.0,
@@ -414,16 +421,17 @@ def calibrate(records, params, model=None, fit=None, progress=False, max_nfev=40
     first = {p.name: min(max(start_values[p.name], p.low), p.high) for p in parameters
              if p.name in (start_values or {})}
     report = engine.fit(objective, parameters, start=first, **options)
-    # defect correction: refit with the full dynamics' difference at the estimate
-    # added, so the result fits the model the user runs, not its reduction
-    try:
-        corrections = defect_corrections(apply_calibration(start, report.values), records,
-                                         model, channels, supply)
-    except (ValueError, ArithmeticError, RuntimeError) as exc:
-        corrections = None
-        notes.append('the full dynamics cannot simulate the first estimate, so it is not '
-                     f'defect-corrected ({str(exc).splitlines()[0]})')
-    if corrections is not None:
+    given = corrections is not None
+    if not given:
+        # defect correction: refit with the full dynamics' difference at the estimate
+        # added, so the result fits the model the user runs, not its reduction
+        try:
+            corrections = defect_corrections(apply_calibration(start, report.values),
+                                             records, model, channels, supply)
+        except (ValueError, ArithmeticError, RuntimeError) as exc:
+            notes.append('the full dynamics cannot simulate the first estimate, so it is '
+                         f'not defect-corrected ({str(exc).splitlines()[0]})')
+    if corrections is not None and not given:
         objective = engine.Objective(records, channels,
                                      predictor(start, model, channels, supply, corrections),
                                      weights=weights, mask=selected)
@@ -435,7 +443,7 @@ def calibrate(records, params, model=None, fit=None, progress=False, max_nfev=40
     result = Calibration(start=start, params=calibrated, report=report, model=model,
                          supply=supply,
                          channels=channels, nominal_power=nominal, records=list(records),
-                         notes=notes)
+                         notes=notes, corrections=corrections)
     if check:
         for params, fits, scores in ((start, result.start_fit, result.start_nrmse),
                                      (calibrated, result.fit, result.nrmse)):

@@ -92,10 +92,11 @@ def joint_order(rounds, candidates, top=JOINT_TOP):
 def joint_calibrations(calibrate_with, problems, nominals, cal, candidates, order):
     """Return the JointFits of the candidates in ``order`` (a list, possibly empty).
 
-    ``calibrate_with(fit, start_values)`` runs the training-part calibration
-    (nominal.calibrate_training_part) and returns (Calibration or None, [params
-    per record], note); ``cal`` is the calibrated nominal's Calibration,
-    ``nominals`` its simulations.
+    ``calibrate_with(fit, start_values, corrections)`` runs the training-part
+    calibration (nominal.calibrate_training_part) and returns (Calibration or
+    None, [params per record], note); ``cal`` is the calibrated nominal's
+    Calibration, whose defect corrections each joint calibration starts from
+    (one fit each), ``nominals`` its simulations.
     """
     fitted = list(cal.report.estimates)
     out = []
@@ -104,7 +105,8 @@ def joint_calibrations(calibrate_with, problems, nominals, cal, candidates, orde
         starts = {s.name: cand.starts[len(cand.starts) // 2][i]
                   for i, s in enumerate(cand.spaces)}
         try:
-            joint, _, _ = calibrate_with(fitted + own, {**cal.report.values, **starts})
+            joint, _, _ = calibrate_with(fitted + own, {**cal.report.values, **starts},
+                                         cal.corrections)
         except (ValueError, ArithmeticError):
             continue
         if joint is None:

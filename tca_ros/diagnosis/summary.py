@@ -1,7 +1,6 @@
 """The one-screen stdout summary of a diagnosis (DiagnosisResult of identification.py)."""
 import os
 
-from tca_ros.diagnosis.candidates import RECALIBRATION
 from tca_ros.diagnosis.verdict import gain
 
 
@@ -66,13 +65,13 @@ def format_summary(result):
                          f'{rnd.base_score:.2f} -> {best.heldout_score:.2f} sigma, '
                          f'{"added" if rnd.accepted else "not significant"}')
     lines.append('')
-    own = {k: v for k, v in result.extended_values.items() if k not in RECALIBRATION}
+    own = {k: v for k, v in result.extended_values.items() if _is_effect(k)}
     if result.effects:
         lines.append('effects found: ' + ', '.join(result.effects))
         lines.append('  ' + '; '.join(_format_value(k, v) for k, v in own.items()))
     else:
         lines.append('effects found: none')
-    refit = {k: v for k, v in result.extended_values.items() if k in RECALIBRATION}
+    refit = {k: v for k, v in result.extended_values.items() if not _is_effect(k)}
     if refit and (result.effects or result.helpful):
         lines.append('  nominal parameters refitted with them: '
                      + '; '.join(_format_value(k, v) for k, v in refit.items()))
@@ -92,3 +91,8 @@ def format_summary(result):
                      f'{result.extended_params_path}; {result.json_path}')
     lines.append(f'{result.n_simulations} simulations, {result.elapsed:.1f} s')
     return '\n'.join(lines)
+
+
+def _is_effect(name):
+    """Return True for an effect's own parameter (dotted), False for a nominal one."""
+    return name.startswith('effects.') or name.startswith('coil.')
