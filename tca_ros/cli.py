@@ -6,7 +6,6 @@ Work is bounded before it starts: a request needing more samples or physics step
 than ``--max-samples`` / ``--max-steps`` allow is refused with exit status 2.
 """
 import argparse
-import csv
 import math
 import os
 import sys
@@ -15,31 +14,28 @@ import warnings
 
 import numpy as np
 
-from tca_ros.cli_common import checked_config, finite_float, InputError
+from tca_ros.cli_common import checked_config, count, EXIT_BAD_INPUT, EXIT_FAILED, EXIT_OK, \
+    finite_float, InputError, MAX_OUTPUT_SAMPLES
+from tca_ros.cli_profile import PROFILE_COLUMNS, read_profile, read_profile_columns, \
+    resample_hold  # noqa: F401 (read_profile: tca_ros.cli's API)
 from tca_ros.diagnosis.data import ABSOLUTE_ZERO_DEGC, clip, DataError, MAX_LOAD_N, \
-    MAX_POWER_W, MAX_TEMPERATURE_DEGC, parse_number, read_text_lines
+    MAX_POWER_W, MAX_TEMPERATURE_DEGC  # noqa: F401 (MAX_POWER_W: the limit cli users see)
 from tca_ros.model.params import GRAVITY, load_params, MODELS, ParameterError, RIG_MODES
 
-EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT = 0, 1, 2
 # Work limits, overridable per run with --max-samples / --max-steps. `simulate` with cst
 # ran 300 k physics steps in 10-13 s on a loaded 2-core machine (load average 3.6), so
 # its limit stays under the 30 s a caller may take for a hang. A diagnosis costs CPU
 # time in proportion to its record-rate steps plus a fixed part (rod tables, ~600
 # simulations): the shipped 240 s example at 200 Hz physics (48 k steps, rod model)
 # took 246 s of CPU and 825 simulations; a 3 s record 4-20 s with cst, 11-84 s with the
-# rod model. At the 100 k steps of MAX_DIAGNOSE_STEPS that is about 8-9 min of CPU
+# rod model. At the 100 k steps of cli_diagnose.MAX_DIAGNOSE_STEPS that is about 8-9 min of CPU
 # with the rod model (measured under load average ~15; a quiet machine is faster).
-MAX_OUTPUT_SAMPLES = 1_000_000  # simulate / diagnose samples: about 50 MB of arrays
 MAX_SIM_STEPS = 300_000  # physics steps of one `simulate` run (5 min at 1 kHz)
-MAX_DIAGNOSE_STEPS = 100_000  # physics steps of one record-rate simulation in diagnose
 MAX_TEMPERATURES = 10_000  # statics rows of a helix (each a nonlinear solve): 13 s CPU
 # A conical TCA's statics solves one rod shape per temperature, about 0.11 s of CPU each
 # (101 temperatures: 13.6 s on the 2-core machine), so its default limit is far lower.
 MAX_CONICAL_SHAPES = 250
 MESSAGE_CHARS = 400  # an error line is cut here: never echo megabytes of input
-DIAGNOSIS_PHYSICS_HZ = 200.0  # diagnose's record-rate physics rate floor (fitting.py)
-DIAGNOSIS_FIT_HZ = 10.0  # diagnose's default fit-grid rate (fitting.FIT_RATE_HZ)
-MIN_FIT_SAMPLES = 20  # fit-grid samples a diagnosis needs (data.MIN_SAMPLES)
 CHECKED_COMMANDS = ('statics', 'simulate', 'diagnose')  # outputs checked finite, so
 # numpy's RuntimeWarnings (multi-line, on stderr) are silenced for them
 
@@ -51,100 +47,6 @@ class CliParser(argparse.ArgumentParser):
         """Print ``prog: error: message`` on one line (cut) and exit with status 2."""
         line = ' '.join(str(message).split())
         self.exit(EXIT_BAD_INPUT, f'{self.prog}: error: {clip(line, MESSAGE_CHARS)}\n')
-
-
-def count(text):
-    """Return ``text`` as a positive int (argparse type of the work limits)."""
-    if not text.strip().isascii() or not text.strip().isdigit() or int(text) < 1:
-        raise argparse.ArgumentTypeError(f'{clip(text)!r} is not a positive integer')
-    return int(text)
-
-
-# -- input profiles -------------------------------------------------------------------
-PROFILE_COLUMNS = ('time', 'power', 'load')  # the dead-weight rig's input columns
-
-
-def read_profile(path, max_rows=None):
-    """Return (time (s), power (W), load (N) or None) from a CSV with a header row.
-
-    Columns: ``time,power`` and optionally ``load``, each once. Power is
-    0..MAX_POWER_W, load 0..MAX_LOAD_N (tensile), times finite and increasing.
-    ``max_rows`` bounds the rows read. Raises InputError or DataError naming the
-    row (1-based, header = row 1) and column of the first bad value.
-    """
-    data = read_profile_columns(path, max_rows)
-    return data['time'], data['power'], data.get('load')
-
-
-def read_profile_columns(path, max_rows=None, allowed=PROFILE_COLUMNS):
-    """Return {column: array} of a profile CSV whose columns are among ``allowed``.
-
-    ``time`` and ``power`` are required; ``power_2`` (W, the antagonist's power)
-    is checked as ``power``. Errors as in read_profile.
-    """
-    header, data, header_row = None, {}, 0
-    for row, line in read_text_lines(path, max_rows):
-        if not line.strip() or line.lstrip().startswith('#'):
-            continue
-        try:
-            cells = next(csv.reader([line]))
-        except csv.Error as exc:
-            raise InputError(f'{path}: row {row}: not CSV ({exc})') from None
-        if header is None:
-            header, header_row = [h.strip() for h in cells], row
-            _check_profile_header(header, path, row, allowed)
-            data = {name: [] for name in header}
-            continue
-        if len(cells) != len(header):
-            raise InputError(f'{path}: row {row}: {len(cells)} fields, expected {len(header)}')
-        for name, text in zip(header, cells):
-            data[name].append(parse_number(text, path, row, name))
-            _check_profile_value(name, data[name][-1], path, row)
-    if header is None:
-        raise InputError(f'{path}: empty file; expected a header row time,power[,load]')
-    if len(data['time']) < 2:
-        raise InputError(f'{path}: needs at least 2 data rows, found {len(data["time"])}')
-    t = np.array(data['time'])
-    bad = np.nonzero(np.diff(t) <= 0.0)[0]
-    if bad.size:
-        i = int(bad[0]) + 1
-        raise InputError(f"{path}: row {header_row + i + 1}, column 'time': {t[i]:g} s is "
-                         f'not after {t[i - 1]:g} s (time must increase)')
-    return {name: np.array(values) for name, values in data.items()}
-
-
-def _check_profile_header(header, path, row, allowed=PROFILE_COLUMNS):
-    names = ','.join(allowed)
-    for name in ('time', 'power'):
-        if name not in header:
-            raise InputError(f"{path}: row {row}: missing column '{name}' "
-                             f"(found {clip(','.join(header))}; allowed {names})")
-    unknown = [h for h in header if h not in allowed]
-    if unknown:
-        raise InputError(f'{path}: row {row}: unknown column {clip(unknown[0])!r} '
-                         f'(allowed {names})')
-    dup = [h for h in header if header.count(h) > 1]
-    if dup:
-        raise InputError(f"{path}: row {row}: column '{dup[0]}' appears twice "
-                         f'(each of {names} at most once)')
-
-
-def _check_profile_value(name, value, path, row):
-    if name == 'load' and value < 0.0:
-        raise InputError(f"{path}: row {row}, column 'load': {value:g} N is compressive; "
-                         'allowed >= 0 (tensile)')
-    if name in ('power', 'power_2') and not 0.0 <= value <= MAX_POWER_W:
-        raise InputError(f'{path}: row {row}, column {name!r}: {value:g} W is out of range; '
-                         f'allowed 0 to {MAX_POWER_W:g} W (Joule heating)')
-    if name == 'load' and value > MAX_LOAD_N:
-        raise InputError(f"{path}: row {row}, column 'load': {value:g} N is out of range; "
-                         f'allowed 0 to {MAX_LOAD_N:g} N (dynamics.load range)')
-
-
-def resample_hold(t_in, values, t_out):
-    """Return ``values`` (sampled at t_in) held constant onto t_out (zero-order hold)."""
-    idx = np.clip(np.searchsorted(t_in, t_out, side='right') - 1, 0, len(t_in) - 1)
-    return np.asarray(values)[idx]
 
 
 # -- subcommands ---------------------------------------------------------------------
@@ -339,51 +241,6 @@ def cmd_bench(args, out):
     return EXIT_OK
 
 
-def cmd_diagnose(args, out):
-    """Diagnose a recording; print the summary; write the report."""
-    from tca_ros.diagnosis import diagnose, format_summary
-    from tca_ros.diagnosis.data import read_record, record_config
-    if args.report and os.path.exists(args.report) and not os.path.isdir(args.report):
-        raise InputError(f'--report = {clip(args.report)!r}: exists and is not a directory')
-    if args.config:
-        checked_config(args.config)
-    fit_rate, total = None, 0.0
-    for data in args.data:
-        is_bag = os.path.isdir(data) or str(data).endswith('.mcap')
-        if not (args.config or not is_bag):
-            continue  # a bag without --config is refused by diagnose
-        # read once under the limits: diagnose re-reads the same file, as large as this
-        record = read_record(data, max_samples=args.max_samples)
-        if not args.config:
-            checked_config(record_config(record), option="'# tca:' header")
-        physics = max(DIAGNOSIS_PHYSICS_HZ, record.sample_rate)
-        steps = record.duration * physics
-        total += steps  # each fit simulates every record: the work adds up over them
-        if not steps <= args.max_steps:
-            raise InputError(f'{data}: {record.duration:.4g} s at {physics:.4g} Hz '
-                             f'physics is {steps:.4g} steps per simulation; the limit is '
-                             f'{args.max_steps} (--max-steps)')
-        if not total <= args.max_steps:
-            raise InputError(f'{data}: with the records before it, {total:.4g} physics steps '
-                             f'per simulation; the limit is {args.max_steps} (--max-steps)')
-        if record.duration * DIAGNOSIS_FIT_HZ + 1.0 < MIN_FIT_SAMPLES:
-            fit_rate = record.sample_rate  # a short record is fitted at its own rate
-    if args.calibrated:
-        checked_config(args.calibrated, option='--calibrated')
-    data = args.data[0] if len(args.data) == 1 else args.data
-    result = diagnose(data, args.config, report_dir=args.report, model=args.model,
-                      progress=not args.quiet, fit_rate=fit_rate,
-                      calibrate_first=not args.no_calibrate, calibrated=args.calibrated,
-                      supply=args.supply, validation=args.validation)
-    for name, rmse in (('nominal', result.nominal_rmse), ('extended', result.extended_rmse)):
-        for channel, value in rmse.items():
-            if not math.isfinite(value):
-                raise ValueError(f'{args.data[0]}: the {name} model gives a held-out '
-                                 f'{channel} RMSE of {value!r}')
-    out.write(format_summary(result) + '\n')
-    return EXIT_OK if result.success else EXIT_FAILED
-
-
 def cmd_demo(args, out):
     """Run the main job: statics table and plot, dynamics run, closed-loop demo."""
     from tca_ros.demo_statics import run_statics_demo
@@ -445,44 +302,14 @@ def build_parser():
                     help='refuse runs of more physics steps per simulation (limit on time)')
     sp.set_defaults(func=cmd_simulate)
 
-    sp = sub.add_parser('diagnose', formatter_class=fmt,
-                        help='find what the model gets wrong in a recording (CSV or MCAP)')
-    sp.add_argument('data', nargs='+',
-                    help='recording(s): CSV with # key: value header, or MCAP bag; several '
-                         'records of one muscle are diagnosed together (one calibration)')
-    sp.add_argument('--config', default=None,
-                    help="nominal params file (default: the recording's '# tca:' header)")
-    sp.add_argument('--model', choices=MODELS, default=None,
-                    help="kinetostatic model of the fits (default: the config's model)")
-    sp.add_argument('--calibrated', default=None,
-                    help='params file from `tca_sim calibrate`: the nominal model to judge '
-                         'effects against (skips the calibration of the training part)')
-    sp.add_argument('--no-calibrate', action='store_true',
-                    help='judge effects against the config as it is (no calibration first)')
-    sp.add_argument('--supply', choices=('power', 'voltage'), default='power',
-                    help='the power column: delivered power, or the nominal power of a '
-                         'constant-voltage supply set at R0')
-    sp.add_argument('--validation', choices=('auto', 'blocks', 'tail'), default='auto',
-                    help='held-out part: 3 of 10 blocks of each record, the last one and '
-                         'two inside (a one-step record is judged on heating and '
-                         'cooling), or its last 30 %%; auto: the tail when its training '
-                         'part holds two coolings, else blocks (docs/diagnosis.md)')
-    sp.add_argument('--report', default=None,
-                    help='directory (DIR) for report.md, PNG plots, diagnosis.json and '
-                         'the extended params YAML')
-    sp.add_argument('--quiet', action='store_true', help='no progress bar')
-    sp.add_argument('--max-samples', type=count, default=MAX_OUTPUT_SAMPLES,
-                    help='refuse runs of more record samples (limit on memory and time)')
-    sp.add_argument('--max-steps', type=count, default=MAX_DIAGNOSE_STEPS,
-                    help='refuse runs of more physics steps per simulation, all records '
-                         'together (limit on time)')
-    sp.set_defaults(func=cmd_diagnose)
-
     sp = sub.add_parser('bench', formatter_class=fmt,
                         help='benchmark the dynamics of each model (printed figures)')
     common(sp, model=False)
     sp.add_argument('--seconds', type=finite_float, default=60.0, help='simulated time (s)')
     sp.set_defaults(func=cmd_bench)
+
+    from tca_ros.cli_diagnose import add_parser as add_diagnose_parser
+    add_diagnose_parser(sub)
 
     from tca_ros.cli_config import add_parser as add_config_parser
     add_config_parser(sub)

@@ -13,6 +13,8 @@ from tca_ros.diagnosis.data import clip, NUMBER
 from tca_ros.model.params import resolve_config
 
 MAX_CONFIG_BYTES = 1 << 20  # a params file is a few kB; refuse to parse megabytes of YAML
+EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT = 0, 1, 2
+MAX_OUTPUT_SAMPLES = 1_000_000  # simulate / diagnose samples: about 50 MB of arrays
 
 
 class InputError(ValueError):
@@ -52,3 +54,10 @@ def stop_gracefully(proc, grace):
             proc.kill()
             proc.wait()
     return proc.returncode
+
+
+def count(text):
+    """Return ``text`` as a positive int (argparse type of the work limits)."""
+    if not text.strip().isascii() or not text.strip().isdigit() or int(text) < 1:
+        raise argparse.ArgumentTypeError(f'{clip(text)!r} is not a positive integer')
+    return int(text)

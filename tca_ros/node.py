@@ -30,11 +30,12 @@ from tca_ros.model.params import from_flat_dict, ParameterError, SCHEMA
 from tca_ros.model.resistance import power_from_voltage
 from tca_ros.model.rigs import start_load
 from tca_ros.node_clock import ClockMixin, NS, time_msg, WARN_PERIOD
+from tca_ros.node_cmdline import check_ros_arguments, init_quietly, log_fatal
 from tca_ros.node_diagnostics import DiagnosticsPublisher
 from tca_ros.node_outputs import non_finite, OutputsMixin
 from tca_ros.node_params import (  # noqa: F401  (re-exported: the node's parameter API)
-    build_simulator, check_ros_arguments, check_unknown_overrides,
-    descriptor, GuardedParameterService, init_quietly, INTEGER_NAMES, log_fatal,
+    build_simulator, check_unknown_overrides,
+    descriptor, GuardedParameterService, INTEGER_NAMES,
     NAMESPACED, namespaced_name, NODE_SCHEMA, NODE_SPECS,
     numbers_as_declared_types, physics_dt, physics_steps_per_tick, READ_ONLY, REBUILD,
     validate_node_values)

@@ -361,7 +361,7 @@ def full_nrmse(params, records, model, supply='power'):
 
 
 def calibrate(records, params, model=None, fit=None, progress=False, max_nfev=40,
-              check=True, supply='power', masks=None, start_values=None, corrections=None):
+              check=True, supply='power', masks=None, start_values=None, like=None):
     """Calibrate ``params`` (start TcaParams) jointly on ``records``; return a Calibration.
 
     ``fit``: names to fit (default DEFAULT_FIT, restricted to what the records
@@ -370,10 +370,10 @@ def calibrate(records, params, model=None, fit=None, progress=False, max_nfev=40
     the records are simulated whole either way, e.g. a diagnosis's training
     blocks); ``start_values``: {name: value} the fit starts from (default the
     priors; clipped to each parameter's bounds), e.g. an earlier calibration's;
-    ``corrections``: an earlier calibration's defect corrections (its
-    ``corrections``), used as they are in a single fit instead of being computed
-    at a first estimate (one fit and no full-dynamics run: the joint calibrations
-    of a diagnosis start next to that estimate).
+    ``like``: an earlier Calibration of the same records and masks, whose defect
+    corrections are used as they are in a single fit (no first estimate, no
+    full-dynamics run: a diagnosis's joint calibrations start next to its
+    nominal calibration).
     """
     if not records:
         raise CalibrationError('records: none given')
@@ -410,6 +410,7 @@ def calibrate(records, params, model=None, fit=None, progress=False, max_nfev=40
     peaks = [peak_stroke(r, m) for r, m in zip(records, masks)]
     median_peak = float(np.median(peaks))
     weights = [p / median_peak for p in peaks]
+    corrections = like.corrections if like is not None else None
     objective = engine.Objective(records, channels,
                                  predictor(start, model, channels, supply, corrections),
                                  weights=weights, mask=selected)
@@ -421,7 +422,7 @@ def calibrate(records, params, model=None, fit=None, progress=False, max_nfev=40
     first = {p.name: min(max(start_values[p.name], p.low), p.high) for p in parameters
              if p.name in (start_values or {})}
     report = engine.fit(objective, parameters, start=first, **options)
-    given = corrections is not None
+    given = like is not None
     if not given:
         # defect correction: refit with the full dynamics' difference at the estimate
         # added, so the result fits the model the user runs, not its reduction

@@ -264,11 +264,10 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
     if verdict == 'unexplained' and cal is not None and rounds:
         # the search's nominal refit is narrow: calibrate its first round's best
         # candidates together with the nominal parameters (joint.py)
-        def calibrate_with(fit, start_values, corrections):
+        def calibrate_with(fit, start_values, like):
             return calibrate_training_part(records, start_params, model, fraction, supply,
                                            False, validation, fit=fit, max_nfev=JOINT_NFEV,
-                                           start_values=start_values,
-                                           corrections=corrections)
+                                           start_values=start_values, like=like)
         fits = joint_calibrations(calibrate_with, problems, nominals, cal, candidates,
                                   joint_order(rounds, candidates))
         joint = best_joint(fits, problems, nominals, nominal_rmse)

@@ -26,7 +26,7 @@ from tca_ros.diagnosis.verdict import channel_stats, heldout_gain_over, needs_ex
 from tca_ros.model.params import to_flat_dict
 
 JOINT_TOP = 3  # candidates of the search's first round calibrated jointly, best first
-JOINT_NFEV = 20  # least-squares iterations of each joint calibration (per pass)
+JOINT_NFEV = 10  # least-squares iterations of each pass of a joint calibration
 
 
 @dataclass
@@ -92,11 +92,11 @@ def joint_order(rounds, candidates, top=JOINT_TOP):
 def joint_calibrations(calibrate_with, problems, nominals, cal, candidates, order):
     """Return the JointFits of the candidates in ``order`` (a list, possibly empty).
 
-    ``calibrate_with(fit, start_values, corrections)`` runs the training-part
+    ``calibrate_with(fit, start_values, like)`` runs the training-part
     calibration (nominal.calibrate_training_part) and returns (Calibration or
     None, [params per record], note); ``cal`` is the calibrated nominal's
-    Calibration, whose defect corrections each joint calibration starts from
-    (one fit each), ``nominals`` its simulations.
+    Calibration, whose defect corrections each joint calibration reuses (one
+    fit each), ``nominals`` its simulations.
     """
     fitted = list(cal.report.estimates)
     out = []
@@ -105,8 +105,7 @@ def joint_calibrations(calibrate_with, problems, nominals, cal, candidates, orde
         starts = {s.name: cand.starts[len(cand.starts) // 2][i]
                   for i, s in enumerate(cand.spaces)}
         try:
-            joint, _, _ = calibrate_with(fitted + own, {**cal.report.values, **starts},
-                                         cal.corrections)
+            joint, _, _ = calibrate_with(fitted + own, {**cal.report.values, **starts}, cal)
         except (ValueError, ArithmeticError):
             continue
         if joint is None:
