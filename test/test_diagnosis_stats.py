@@ -165,7 +165,8 @@ def test_a_lag_effect_is_also_screened_with_the_dampings_lag_handed_over():
 
 def test_the_joint_calibration_takes_the_first_rounds_best_and_the_lag_siblings():
     # the first round's best JOINT_TOP calibratable candidates (coil contact's stop is
-    # geometry, not calibrated); with a lag effect among them the other lags follow
+    # geometry, not calibrated); with a member of a family among them (the lags, the play
+    # operators) the rest of its family follows
     from types import SimpleNamespace
     from tca_ros.diagnosis.candidates import build_candidates
     from tca_ros.diagnosis.joint import joint_order, JOINT_TOP
@@ -174,12 +175,12 @@ def test_the_joint_calibration_takes_the_first_rounds_best_and_the_lag_siblings(
     params = load_params('free_stroke', model='cst')
     candidates = build_candidates(params, 'cst', 0.2, 5e-3)
     ranking = ['coil_contact', 'dead_time', 'creep', 'hysteresis', 'radiation',
-               'second_thermal_lag', 'sensor_lag']
+               'second_thermal_lag', 'sensor_lag', 'friction', 'creep_x']
     scores = [SimpleNamespace(name=n) for n in ranking]
     order = [c.name for c in joint_order([None, SearchRound([], 1.0, {}, scores)],
                                          candidates)]
     assert order[:JOINT_TOP] == ['dead_time', 'creep', 'hysteresis']
-    assert order[JOINT_TOP:] == ['second_thermal_lag', 'sensor_lag']
+    assert order[JOINT_TOP:] == ['second_thermal_lag', 'sensor_lag', 'friction']
     without_lag = [SimpleNamespace(name=n) for n in ['creep', 'hysteresis', 'radiation',
                                                      'dead_time']]
     assert [c.name for c in joint_order([SearchRound([], 1.0, {}, without_lag)],
@@ -234,3 +235,26 @@ def test_a_calibration_fits_a_catalogue_effect_parameter_named_in_fit(tmp_path):
     with pytest.raises(CalibrationError, match='name it once'):
         calibrate([record], start, fit=['friction_force', 'effects.friction_force'],
                   check=False)
+
+
+def test_a_joint_fit_is_taken_only_when_it_explains_and_beats_the_nominal(monkeypatch):
+    # rules of joint.best_joint: no structure left, no parameter at a bound, a positive
+    # penalised gain and the search's acceptance against the nominal; the best gain wins
+    # and the others that pass are returned as rivals (the report names them)
+    from tca_ros.diagnosis import joint
+    from tca_ros.diagnosis.joint import best_joint, JointFit
+
+    def fit(name, criterion, explained=True, pinned=()):
+        return JointFit(name=name, values={}, n_params=1, sims=[], criterion=criterion,
+                        explained=explained, pinned=list(pinned))
+
+    fits = [fit('creep', 40.0), fit('friction', 90.0, explained=False),
+            fit('hysteresis', 60.0), fit('sensor_lag', 120.0, pinned=[('x', 3.0, 3.0)]),
+            fit('radiation', -1.0), fit('dead_time', 10.0)]
+    monkeypatch.setattr(joint, 'beats_nominal', lambda *args: True)
+    best, rivals = best_joint(fits, [], [], {})
+    assert best.name == 'hysteresis'
+    assert [f.name for f in rivals] == ['creep', 'dead_time']
+    monkeypatch.setattr(joint, 'beats_nominal',
+                        lambda problems, nominals, sims, k, rmse: False)
+    assert best_joint(fits, [], [], {}) == (None, [])

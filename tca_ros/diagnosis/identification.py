@@ -270,12 +270,18 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
                                            start_values=start_values, like=like)
         fits = joint_calibrations(calibrate_with, problems, nominals, cal, candidates,
                                   joint_order(rounds, candidates))
-        joint = best_joint(fits, problems, nominals, nominal_rmse)
+        joint, rivals = best_joint(fits, problems, nominals, nominal_rmse)
         if joint is not None:
             left = f' with {" + ".join(effects)}' if effects else ''
             notes.append(f'the search left structure{left}; {joint.name}, calibrated '
                          'jointly with all the nominal parameters on the training part, '
                          'explains it (docs/diagnosis.md section 16)')
+            if rivals:
+                notes.append(
+                    'also explained, calibrated jointly: ' + ', '.join(
+                        f'{f.name} (penalised held-out gain {f.criterion:.1f} against '
+                        f'{joint.criterion:.1f})' for f in rivals)
+                    + '; these records tell them apart only by that gain')
             effects, values, extendeds = [joint.name], joint.values, joint.sims
             extended_rmse = pooled_heldout_rmse(problems, extendeds, channels)
             extended_stats = channel_stats(problems, extendeds,
