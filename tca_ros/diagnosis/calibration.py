@@ -422,8 +422,7 @@ def calibrate(records, params, model=None, fit=None, progress=False, max_nfev=40
     first = {p.name: min(max(start_values[p.name], p.low), p.high) for p in parameters
              if p.name in (start_values or {})}
     report = engine.fit(objective, parameters, start=first, **options)
-    given = like is not None
-    if not given:
+    if like is None:
         # defect correction: refit with the full dynamics' difference at the estimate
         # added, so the result fits the model the user runs, not its reduction
         try:
@@ -432,7 +431,7 @@ def calibrate(records, params, model=None, fit=None, progress=False, max_nfev=40
         except (ValueError, ArithmeticError, RuntimeError) as exc:
             notes.append('the full dynamics cannot simulate the first estimate, so it is '
                          f'not defect-corrected ({str(exc).splitlines()[0]})')
-    if corrections is not None and not given:
+    if corrections is not None and like is None:
         objective = engine.Objective(records, channels,
                                      predictor(start, model, channels, supply, corrections),
                                      weights=weights, mask=selected)

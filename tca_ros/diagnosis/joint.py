@@ -2,13 +2,14 @@
 
 Calibrate-first fits the nominal parameters on the training part before any
 effect is tried, and an effect in the data is then partly taken up by them: a
-creeping coil calibrates as a coil four to seven times too soft, a second
+creeping coil calibrates as a coil seven times too soft (seed 9014), a second
 thermal lag as a large damping. The greedy search (search.py) refits only the
 gain, the delivered power, the specific heat and the damping with each
 candidate, within narrow factors of their calibrated values, so it cannot give
 back what the stiffness or the time constant absorbed. When its result leaves
-structure, each candidate of its first round is calibrated here together with
-the nominal parameters, with the calibration's own priors and bounds
+structure, the best candidates of its first round (joint_order) are each
+calibrated here together with all the nominal parameters, with the
+calibration's own priors and bounds
 (calibration.calibrate with the effect's parameters in ``fit``), on the same
 training part. A candidate is taken only when its joint calibration passes the
 search's acceptance against the calibrated nominal model (the penalised held-out
