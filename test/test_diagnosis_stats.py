@@ -239,7 +239,7 @@ def test_a_calibration_fits_a_catalogue_effect_parameter_named_in_fit(tmp_path):
 
 def test_a_joint_fit_is_taken_only_when_it_explains_and_beats_the_nominal(monkeypatch):
     # rules of joint.best_joint: no structure left, no parameter at a bound, a positive
-    # penalised gain and the search's acceptance against the nominal; the best gain wins
+    # penalised gain and the search's RMS rule against the nominal; the best gain wins
     # and the others that pass are returned as rivals (the report names them)
     from tca_ros.diagnosis import joint
     from tca_ros.diagnosis.joint import best_joint, JointFit
@@ -251,10 +251,9 @@ def test_a_joint_fit_is_taken_only_when_it_explains_and_beats_the_nominal(monkey
     fits = [fit('creep', 40.0), fit('friction', 90.0, explained=False),
             fit('hysteresis', 60.0), fit('sensor_lag', 120.0, pinned=[('x', 3.0, 3.0)]),
             fit('radiation', -1.0), fit('dead_time', 10.0)]
-    monkeypatch.setattr(joint, 'beats_nominal', lambda *args: True)
+    monkeypatch.setattr(joint, 'lowers_heldout_rms', lambda *args: True)
     best, rivals = best_joint(fits, [], [], {})
     assert best.name == 'hysteresis'
     assert [f.name for f in rivals] == ['creep', 'dead_time']
-    monkeypatch.setattr(joint, 'beats_nominal',
-                        lambda problems, nominals, sims, k, rmse: False)
+    monkeypatch.setattr(joint, 'lowers_heldout_rms', lambda problems, sims, rmse: False)
     assert best_joint(fits, [], [], {}) == (None, [])

@@ -256,11 +256,14 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
                              f'({str(exc).splitlines()[0]})') from None
     finally:
         bar.close()
-    extended_rmse = pooled_heldout_rmse(problems, extendeds, channels)
-    extended_stats = channel_stats(problems, extendeds,
-                                   [p.parameters(values) for p in problems])
-    verdict, explanation = decide_verdict(effects, nominal_stats, extended_stats,
-                                          whole_stats)
+
+    def judged(effects, values, extendeds):
+        """Return (held-out RMSE, residual stats, verdict, explanation) of an extension."""
+        rmse = pooled_heldout_rmse(problems, extendeds, channels)
+        stats = channel_stats(problems, extendeds, [p.parameters(values) for p in problems])
+        return (rmse, stats) + decide_verdict(effects, nominal_stats, stats, whole_stats)
+
+    extended_rmse, extended_stats, verdict, explanation = judged(effects, values, extendeds)
     if verdict == 'unexplained' and cal is not None and rounds:
         # the search's nominal refit is narrow: calibrate its first round's best
         # candidates together with the nominal parameters (joint.py)
@@ -283,11 +286,8 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
                         f'{joint.criterion:.1f})' for f in rivals)
                     + '; these records tell them apart only by that gain')
             effects, values, extendeds = [joint.name], joint.values, joint.sims
-            extended_rmse = pooled_heldout_rmse(problems, extendeds, channels)
-            extended_stats = channel_stats(problems, extendeds,
-                                           [p.parameters(values) for p in problems])
-            verdict, explanation = decide_verdict(effects, nominal_stats, extended_stats,
-                                                  whole_stats)
+            extended_rmse, extended_stats, verdict, explanation = judged(effects, values,
+                                                                         extendeds)
     pinned = parameters_at_bounds(effects, values, candidates)
     if verdict == 'explained' and pinned:
         verdict = 'unexplained'

@@ -53,12 +53,20 @@ def beats_nominal(problems, nominals, extendeds, added, nominal_rmse):
 
     As each candidate is accepted (search._greedy): a positive penalised held-out
     gain under the verdict's noise model (verdict.heldout_gain_over) and a
-    held-out RMS gain of at least MIN_GAIN_PERCENT, channels weighted by their
-    noise sigma, here on the record-rate simulations of both whole models.
+    held-out RMS gain of at least MIN_GAIN_PERCENT (:func:`lowers_heldout_rms`),
+    here on the record-rate simulations of both whole models.
     ``nominal_rmse``: the nominal's pooled held-out RMSE ({channel: m or K}).
     """
-    if heldout_gain_over(problems, nominals, extendeds, added) <= 0.0:
-        return False
+    return (heldout_gain_over(problems, nominals, extendeds, added) > 0.0
+            and lowers_heldout_rms(problems, extendeds, nominal_rmse))
+
+
+def lowers_heldout_rms(problems, extendeds, nominal_rmse):
+    """Return True when ``extendeds`` cut the held-out RMS by MIN_GAIN_PERCENT or more.
+
+    Channels weighted by their noise sigma; ``nominal_rmse`` is the nominal's
+    pooled held-out RMSE ({channel: m or K}).
+    """
     sigma, channels = problems[0].sigma, problems[0].channels
     after = pooled_heldout_rmse(problems, extendeds, channels)
     score = [math.sqrt(sum((rmse[c] / sigma[c]) ** 2 for c in channels))
@@ -155,7 +163,8 @@ def best_joint(fits, problems, nominals, nominal_rmse):
     largest penalised held-out gain. The others that pass too are returned, best
     first, so the report can say the records do not tell them apart.
     """
+    # f.criterion is heldout_gain_over of f.sims: beats_nominal without computing it again
     ok = [f for f in fits if f.explained and not f.pinned and f.criterion > 0.0
-          and beats_nominal(problems, nominals, f.sims, f.n_params, nominal_rmse)]
+          and lowers_heldout_rms(problems, f.sims, nominal_rmse)]
     ok.sort(key=lambda f: f.criterion, reverse=True)
     return (ok[0], ok[1:]) if ok else (None, [])
