@@ -174,3 +174,31 @@ def test_cst_with_the_radius_of_eq_24_tracks_the_rod_model(free_stroke, mass):
     assert np.max(np.abs(cst - rod)) == pytest.approx(gap, abs=0.01)
     assert np.max(np.abs(cst - rod)) < 0.6
     assert np.max(np.abs(cst - rod)) < np.max(np.abs(held - rod))
+
+
+@pytest.mark.parametrize('variant', [{}, {'moduli.constant': True},
+                                     {'fiber.heated_radius_in_section': False},
+                                     {'effects.extra_softening': 1.5e7, 'fiber.untwist_gain': 0.7,
+                                      'thermal.ambient_temperature_degc': 31.0}])
+def test_the_fused_cst_tension_equals_the_relations_bit_for_bit(free_stroke, variant):
+    """The stepper's fused CST (cst_tension_function) is the per-equation one, exactly.
+
+    Elongations from contraction to stretch (the asin clamp included), 0-260 degC,
+    tensions 0-3 N (tau clipped at its range); a strong softening takes the modulus
+    to its floor.
+    """
+    params = free_stroke.with_values(**variant)
+    cst = ks.CstModel(params)
+    rng = np.random.default_rng(7)
+    natural = cst.natural_length
+    ys = np.concatenate([rng.uniform(-0.9 * natural, 0.05, 300), [-2.0 * natural, 1.0]])
+    temps = rng.uniform(0.0, 260.0, ys.size)
+    forces = rng.uniform(0.0, 3.0, ys.size)
+    floored = 0
+    for y, temp, force in zip(ys, temps, forces):
+        fused = cst.tension(float(y), float(temp), float(force))
+        assert fused == cst.tension_by_relations(float(y), float(temp), float(force))
+        floored += ks.section_stiffness(temp, force, params).E <= \
+            params.moduli.fiber_modulus_floor * params.moduli.youngs_modulus * (1 + 1e-12)
+    if 'effects.extra_softening' in variant:  # E_f falls to its floor on part of the range
+        assert 0 < floored < ys.size

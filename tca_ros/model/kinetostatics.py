@@ -229,7 +229,20 @@ class CstModel(KinetostaticModel):
 
     name = 'cst'
 
+    def __init__(self, params):
+        super().__init__(params)
+        self._fused = cst_tension_function(params, self.natural_length)
+
     def _tension_at(self, elongation, temperature, force):
+        # the stepper's hot path: the relations of tension_by_relations, fused
+        return self._fused(elongation, temperature, force)
+
+    def tension_by_relations(self, elongation, temperature, force):
+        """Return F (N) of Eq. (29) at elongation (m), temperature (degC), moduli at force (N).
+
+        The relations composed one function per equation, as the paper writes them;
+        the stepper uses :func:`cst_tension_function`, the same arithmetic fused.
+        """
         p = self.params
         alpha = pitch_angle_of_length(self.natural_length + elongation, p.fiber)
         section = self.section(temperature, force)
@@ -237,6 +250,61 @@ class CstModel(KinetostaticModel):
         compliance = cst_compliance(radius, alpha, section, p.fiber)
         a_cst = cst_kinematic_coefficient(radius, alpha, p.fiber)
         return (elongation - a_cst * self.untwist(temperature)) / compliance
+
+
+def cst_tension_function(params, natural):
+    """Return f(y, T, F) -> tension (N) of Eq. (29), Eqs. (2), (4), (8)-(11), (24), (26) fused.
+
+    ``y`` elongation (m), ``T`` temperature (degC), ``F`` the tension (N) at which
+    the moduli of eq. (11) are taken. It performs the floating-point operations of
+    :meth:`CstModel.tension_by_relations` in the same order (bit-for-bit equal;
+    test_kinetostatics.py), with the constants of ``params`` read once: the central-
+    difference stepper calls it once or twice per substep, and the calls through the
+    readable per-equation functions cost about half of a simulation's time.
+    """
+    fiber, coil, moduli = params.fiber, params.coil, params.moduli
+    length, twist_gain = fiber.length, fiber.untwist_gain * fiber.inserted_twist
+    ambient = params.thermal.ambient_temperature
+    c2, c1, c0 = fiber.gamma_coefficients
+    gamma_ambient = (c2 * ambient + c1) * ambient + c0
+    cos_star, r_star, r_fiber = math.cos(coil.pitch_angle), coil.radius, fiber.radius
+    constant = moduli.constant
+    heated = fiber.heated_radius_in_section and not constant
+    e0, g0, ef0 = moduli.youngs_modulus, moduli.shear_modulus, moduli.fiber_modulus
+    polar = math.pi * r_fiber ** 4 / 2.0
+    tau_scale = moduli.shear_modulus * polar
+    tau_max = moduli.max_torsion_strain
+    mu2, mu1, mu0 = moduli.load_coefficients
+    softening_k, extra = moduli.fiber_softening, params.effects.extra_softening
+    floor = moduli.fiber_modulus_floor * ef0
+
+    def tension(elongation, temperature, force):
+        alpha = math.asin(min(max((natural + elongation) / length, -1.0), 1.0))  # (26)
+        gamma = (c2 * temperature + c1) * temperature + c0  # (2)
+        if constant:
+            e, g = e0, g0
+        else:  # (11)
+            tau = min(max(force * r_fiber * cos_star / tau_scale, 0.0), tau_max)
+            lam = (mu2 * tau + mu1) * tau + mu0
+            modulus = max(ef0 - (softening_k * lam + extra) * (temperature - ambient), floor)
+            ratio = modulus / ef0
+            e, g = e0 * ratio, g0 * ratio
+        r = r_fiber * gamma / gamma_ambient if heated else r_fiber  # (2)
+        area = math.pi * r * r  # (8)
+        second_moment = area * r * r / 4.0
+        cos_a = math.cos(alpha)
+        radius = r_star * cos_a / cos_star  # (24)
+        cos2 = cos_a ** 2
+        sin2 = 1.0 - cos2
+        r2 = radius * radius
+        compliance = length * (r2 * cos2 / (g * 2.0 * second_moment)  # (29)
+                               + r2 * sin2 / (e * second_moment)
+                               + cos2 / (g * area) + sin2 / (e * area))
+        a_cst = length * radius * cos_a
+        untwist = twist_gain * (gamma_ambient / gamma - 1.0)  # (4)
+        return (elongation - a_cst * untwist) / compliance
+
+    return tension
 
 
 def contact_elongation(params):
