@@ -21,7 +21,7 @@ demo: $(STAMP)
 	$(VENV)/bin/tca_sim demo --out $(OUT)
 
 test: $(STAMP)
-	$(PY) -m pytest -q --timeout=600 -n 2 --dist loadfile --durations=25 test
+	OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1 $(PY) -m pytest -q --timeout=600 -n 2 --dist loadfile --durations=25 test
 
 bench: $(STAMP)
 	$(VENV)/bin/tca_sim bench

@@ -23,7 +23,8 @@ With ``--real DIR`` the shared real records are diagnosed together too.
 
 Printed figures, not assertions.
 """
-import argparse
+import one_blas_thread  # noqa: F401  (before NumPy: one BLAS thread per process)
+import argparse  # noqa: I100, I201
 import collections
 import dataclasses
 import glob

@@ -20,7 +20,8 @@ far each fitted value moved in units of its standard error.
 
 Printed figures, not assertions.
 """
-import argparse
+import one_blas_thread  # noqa: F401  (before NumPy: one BLAS thread per process)
+import argparse  # noqa: I100, I201
 import json
 import math
 import multiprocessing

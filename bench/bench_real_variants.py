@@ -20,7 +20,8 @@ not need (compare with ``as is``).
 
     python bench/bench_real_variants.py [DIR] [--jobs 2] [--records N ...]
 """
-import argparse
+import one_blas_thread  # noqa: F401  (before NumPy: one BLAS thread per process)
+import argparse  # noqa: I100, I201
 import dataclasses
 import os
 import sys
