@@ -188,6 +188,43 @@ def test_the_joint_calibration_takes_the_first_rounds_best_and_the_lag_siblings(
     assert joint_order([], candidates) == []
 
 
+def test_pairs_start_from_single_joint_fits_that_help_and_take_partners_outside_their_family():
+    # joint.pair_order: leads are the single fits with a positive gain (best first); a
+    # lead the search added takes its partners from the round based on it, another
+    # from the first round; never its own family or coil contact; no lead, no pair
+    from types import SimpleNamespace
+    from tca_ros.diagnosis.candidates import build_candidates
+    from tca_ros.diagnosis.joint import JointFit, MAX_PAIRS, pair_order
+    from tca_ros.diagnosis.search import SearchRound
+    from tca_ros.model.params import load_params
+    candidates = build_candidates(load_params('free_stroke', model='cst'), 'cst', 0.2, 5e-3)
+
+    def fit(name, criterion):
+        return JointFit(name=name, values={}, n_params=1, sims=[], criterion=criterion,
+                        explained=False, pinned=[])
+
+    def scores(*names):
+        return [SimpleNamespace(name=n) for n in names]
+
+    first = SearchRound([], 1.0, {}, scores('dead_time', 'second_thermal_lag', 'sensor_lag',
+                                            'coil_contact', 'friction', 'ambient_offset'))
+    second = SearchRound(['dead_time'], 1.0, {},
+                         scores('second_thermal_lag', 'coil_contact', 'ambient_offset',
+                                'creep', 'friction'))
+    fits = [fit('dead_time', 1417.0), fit('sensor_lag', 36.0), fit('hysteresis', -5.0)]
+    pairs = [tuple(c.name for c in p) for p in pair_order([first, second], candidates, fits)]
+    assert pairs == [('dead_time', 'ambient_offset'), ('dead_time', 'creep'),
+                     ('sensor_lag', 'friction'), ('sensor_lag', 'ambient_offset')]
+    assert len(pairs) <= MAX_PAIRS
+    assert pair_order([first, second], candidates, [fit('dead_time', -1.0)]) == []
+    assert pair_order([], candidates, fits) == []
+    pair = JointFit(name='dead_time + ambient_offset', values={}, n_params=2, sims=[],
+                    criterion=1.0, explained=True, pinned=[],
+                    effects=('dead_time', 'ambient_offset'))
+    assert pair.effects == ('dead_time', 'ambient_offset')
+    assert fit('creep', 1.0).effects == ('creep',)
+
+
 def test_changed_values_lists_what_a_joint_calibration_moved():
     from tca_ros.diagnosis.joint import changed_values
     from tca_ros.model.params import load_params

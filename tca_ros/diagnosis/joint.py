@@ -27,6 +27,9 @@ from tca_ros.diagnosis.verdict import channel_stats, heldout_gain_over, needs_ex
 from tca_ros.model.params import to_flat_dict
 
 JOINT_TOP = 3  # candidates of the search's first round calibrated jointly, best first
+PAIR_LEADS = 2  # single joint fits that help without explaining, each tried with partners
+PAIR_PARTNERS = 2  # partners of each, from the search round that added it (or the first)
+MAX_PAIRS = 4  # pairs calibrated jointly at most
 JOINT_NFEV = 10  # least-squares iterations of each pass of a joint calibration
 #: effects one record may not tell apart, tried together: the lags (each delays the
 #: response), the play operators (on the temperature or on the elongation: the same band
@@ -37,15 +40,19 @@ FAMILIES = (LAG_EFFECTS, ('hysteresis', 'friction'),
 
 @dataclass
 class JointFit:
-    """One candidate calibrated jointly with the nominal parameters."""
+    """One candidate (or a pair) calibrated jointly with the nominal parameters."""
 
-    name: str
+    name: str  # the effect, or 'a + b' for a pair
     values: dict  # dotted name -> value: what differs from the calibrated nominal
-    n_params: int  # the candidate's own parameters
+    n_params: int  # the candidates' own parameters
     sims: list  # per record, the full dynamics (18) at the record's samples
     criterion: float  # penalised held-out gain over the calibrated nominal (-)
     explained: bool  # the verdict's test finds no structure left
     pinned: list  # (name, value, bound) of its parameters at the end of their range
+    effects: tuple = ()  # the catalogue names, in the order found (default: (name,))
+
+    def __post_init__(self):  # noqa: D105 -- a single effect names itself
+        self.effects = tuple(self.effects) or (self.name,)
 
 
 def beats_nominal(problems, nominals, extendeds, added, nominal_rmse):
@@ -107,8 +114,8 @@ def joint_order(rounds, candidates, top=JOINT_TOP):
     return order
 
 
-def joint_calibrations(calibrate_with, problems, nominals, cal, candidates, order):
-    """Return the JointFits of the candidates in ``order`` (a list, possibly empty).
+def joint_calibrations(calibrate_with, problems, nominals, cal, candidates, groups):
+    """Return the JointFits of the candidate ``groups`` (each a tuple: one effect or a pair).
 
     ``calibrate_with(fit, start_values, like)`` runs the training-part
     calibration (nominal.calibrate_training_part) and returns (Calibration or
@@ -121,10 +128,10 @@ def joint_calibrations(calibrate_with, problems, nominals, cal, candidates, orde
     fitted = list(cal.report.estimates)
     enough = (1.0 - MIN_GAIN_PERCENT / 100.0) ** 2 * training_misfit(cal.report, cal.report)
     out = []
-    for cand in order:
-        own = [s.name for s in cand.spaces]
+    for group in groups:
+        own = [s.name for cand in group for s in cand.spaces]
         starts = {s.name: cand.starts[len(cand.starts) // 2][i]
-                  for i, s in enumerate(cand.spaces)}
+                  for cand in group for i, s in enumerate(cand.spaces)}
         try:
             joint, _, _ = calibrate_with(fitted + own, {**cal.report.values, **starts}, cal)
         except (ValueError, ArithmeticError):
@@ -137,12 +144,48 @@ def joint_calibrations(calibrate_with, problems, nominals, cal, candidates, orde
         except (ValueError, ArithmeticError):  # the full dynamics cannot run it
             continue
         stats = channel_stats(problems, sims, [p.parameters(values) for p in problems])
+        names = tuple(c.name for c in group)
         out.append(JointFit(
-            name=cand.name, values=values, n_params=len(own), sims=sims,
+            name=' + '.join(names), values=values, n_params=len(own), sims=sims,
             criterion=heldout_gain_over(problems, nominals, sims, len(own)),
             explained=not needs_explaining(stats),
-            pinned=parameters_at_bounds([cand.name], values, candidates)))
+            pinned=parameters_at_bounds(list(names), values, candidates), effects=names))
     return out
+
+
+def pair_order(rounds, candidates, fits):
+    """Return the pairs to calibrate jointly when no single joint fit explains the data.
+
+    Two effects at once are what a single joint fit that helps but leaves
+    structure may be missing. The leads are the PAIR_LEADS single fits with a
+    positive penalised held-out gain (best first); a lead's partners are the
+    best PAIR_PARTNERS calibratable candidates of the search round whose base was
+    that lead alone (the greedy search ranked them given it), or of the first
+    round when the search did not add it, leaving out the lead's own family (its
+    rivals, not its complements) and coil contact. At most MAX_PAIRS, as tuples.
+    A record where no single effect helps gets no pair: the nulls and the defects
+    outside the catalogue keep `unexplained` with nothing named.
+    """
+    by_name = {c.name: c for c in candidates
+               if all(s.name.startswith('effects.') for s in c.spaces)}
+    leads = sorted((f for f in fits if f.criterion > 0.0 and len(f.effects) == 1),
+                   key=lambda f: f.criterion, reverse=True)[:PAIR_LEADS]
+    rounds = [r for r in rounds if r is not None]
+    pairs, seen = [], set()
+    for lead in leads:
+        name = lead.effects[0]
+        after = next((r for r in rounds if list(r.base_effects) == [name]),
+                     rounds[0] if rounds else None)
+        if after is None or name not in by_name:
+            continue
+        rivals = next((set(f) for f in FAMILIES if name in f), {name})
+        partners = [s.name for s in after.scores
+                    if s.name in by_name and s.name not in rivals][:PAIR_PARTNERS]
+        for other in partners:
+            if frozenset((name, other)) not in seen:
+                seen.add(frozenset((name, other)))
+                pairs.append((by_name[name], by_name[other]))
+    return pairs[:MAX_PAIRS]
 
 
 def training_misfit(report, reference):
