@@ -1,4 +1,4 @@
-"""Calibrate the nominal model jointly with one candidate: the search's second opinion.
+"""Calibrate the nominal model jointly with a candidate or a pair: the search's second opinion.
 
 Calibrate-first fits the nominal parameters on the training part before any
 effect is tried, and an effect in the data is then partly taken up by them: a
@@ -16,6 +16,8 @@ search's acceptance against the calibrated nominal model (the penalised held-out
 gain under the verdict's noise model, at least MIN_GAIN_PERCENT), leaves no
 structure by the verdict's test and has no parameter at the end of its range:
 a cleaner explanation than the search's, or none (docs/diagnosis.md section 16).
+When none is taken, the single fits that helped are calibrated again each with a
+partner (pair_order), under the same rules (section 17).
 """
 from dataclasses import dataclass
 import math
