@@ -288,7 +288,7 @@ def test_two_effects_no_single_one_explains_are_found_by_a_joint_pair(tmp_path, 
     # 5.2 K and a second thermal lag of 1.33 s. Each effect calibrated jointly alone helps
     # but leaves structure; the pair, calibrated jointly, explains it (docs section 17).
     # Without the pair stage the same record is not explained.
-    from tca_ros.diagnosis import identification
+    from tca_ros.diagnosis import joint
     from tca_ros.diagnosis.realistic import truth_path
     from tca_ros.model.params import load_params
     hidden = ['ambient_offset', 'second_thermal_lag']
@@ -303,6 +303,6 @@ def test_two_effects_no_single_one_explains_are_found_by_a_joint_pair(tmp_path, 
     assert values['effects.ambient_offset'] == pytest.approx(truth.ambient_offset, rel=0.25)
     assert values['effects.second_thermal_lag'] == pytest.approx(truth.second_thermal_lag,
                                                                  rel=0.25)
-    monkeypatch.setattr(identification, 'pair_order', lambda *args: [])
+    monkeypatch.setattr(joint, 'pair_order', lambda *args: [])
     single = diagnose(path, start, progress=False)
     assert single.verdict != 'explained' or sorted(single.effects) != sorted(hidden)

@@ -11,8 +11,7 @@ import time as wallclock
 from tca_ros.diagnosis.candidates import ABSORBED, absorbed_candidates, parameters_at_bounds
 from tca_ros.diagnosis.data import DataError, record_config
 from tca_ros.diagnosis.holdout import AUTO, choose_validation, DEFAULT_VALIDATION
-from tca_ros.diagnosis.joint import beats_nominal, best_joint, joint_calibrations, JOINT_NFEV, \
-    joint_order, pair_order
+from tca_ros.diagnosis.joint import beats_nominal, joint_extension, JOINT_NFEV, joint_notes
 from tca_ros.diagnosis.nominal import calibrate_training_part, candidates_of, nominal_problems, \
     read_any, record_nominal
 from tca_ros.diagnosis.progress import Progress
@@ -271,26 +270,10 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
             return calibrate_training_part(records, start_params, model, fraction, supply,
                                            False, validation, fit=fit, max_nfev=JOINT_NFEV,
                                            start_values=start_values, like=like)
-        fits = joint_calibrations(calibrate_with, problems, nominals, cal, candidates,
-                                  [(c,) for c in joint_order(rounds, candidates)])
-        joint, rivals = best_joint(fits, problems, nominals, nominal_rmse)
-        if joint is None:  # one effect helps but leaves structure: it and a partner
-            fits = joint_calibrations(calibrate_with, problems, nominals, cal, candidates,
-                                      pair_order(rounds, candidates, fits))
-            joint, rivals = best_joint(fits, problems, nominals, nominal_rmse)
+        joint, rivals = joint_extension(calibrate_with, problems, nominals, cal, candidates,
+                                        rounds, nominal_rmse)
         if joint is not None:
-            left = f' with {" + ".join(effects)}' if effects else ''
-            pair = len(joint.effects) > 1
-            notes.append(f'the search left structure{left}; {joint.name}, calibrated '
-                         'jointly with all the nominal parameters on the training part, '
-                         f'{"explain" if pair else "explains"} it (docs/diagnosis.md '
-                         f'section {17 if pair else 16})')
-            if rivals:
-                notes.append(
-                    'also explained, calibrated jointly: ' + ', '.join(
-                        f'{f.name} (penalised held-out gain {f.criterion:.1f} against '
-                        f'{joint.criterion:.1f})' for f in rivals)
-                    + '; these records tell them apart only by that gain')
+            notes.extend(joint_notes(joint, rivals, effects))
             effects, values, extendeds = list(joint.effects), joint.values, joint.sims
             extended_rmse, extended_stats, verdict, explanation = judged(effects, values,
                                                                          extendeds)

@@ -213,3 +213,37 @@ def best_joint(fits, problems, nominals, nominal_rmse):
           and lowers_heldout_rms(problems, f.sims, nominal_rmse)]
     ok.sort(key=lambda f: f.criterion, reverse=True)
     return (ok[0], ok[1:]) if ok else (None, [])
+
+
+def joint_extension(calibrate_with, problems, nominals, cal, candidates, rounds, nominal_rmse):
+    """Return (the JointFit taken or None, its rivals): singles first, then pairs.
+
+    The search's first-round candidates (joint_order) are calibrated jointly one
+    at a time; when none is taken, the pairs of pair_order; best_joint decides
+    each time. Arguments as joint_calibrations and best_joint; ``rounds`` are the
+    search's SearchRounds.
+    """
+    fits = joint_calibrations(calibrate_with, problems, nominals, cal, candidates,
+                              [(c,) for c in joint_order(rounds, candidates)])
+    joint, rivals = best_joint(fits, problems, nominals, nominal_rmse)
+    if joint is None:  # one effect helps but leaves structure: it and a partner
+        fits = joint_calibrations(calibrate_with, problems, nominals, cal, candidates,
+                                  pair_order(rounds, candidates, fits))
+        joint, rivals = best_joint(fits, problems, nominals, nominal_rmse)
+    return joint, rivals
+
+
+def joint_notes(joint, rivals, searched):
+    """Return the report's notes on a JointFit taken over the search's ``searched`` effects."""
+    left = f' with {" + ".join(searched)}' if searched else ''
+    pair = len(joint.effects) > 1
+    notes = [f'the search left structure{left}; {joint.name}, calibrated jointly with all '
+             'the nominal parameters on the training part, '
+             f'{"explain" if pair else "explains"} it (docs/diagnosis.md section '
+             f'{17 if pair else 16})']
+    if rivals:
+        notes.append('also explained, calibrated jointly: ' + ', '.join(
+            f'{f.name} (penalised held-out gain {f.criterion:.1f} against '
+            f'{joint.criterion:.1f})' for f in rivals)
+            + '; these records tell them apart only by that gain')
+    return notes
