@@ -19,14 +19,11 @@ from rclpy.clock import Clock, ClockType
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.qos import QoSProfile
-from rclpy.qos_overriding_options import QoSOverridingOptions
 from rosgraph_msgs.msg import Clock as ClockMsg
-from sensor_msgs.msg import JointState, Temperature
 from std_msgs.msg import Float64
 from std_srvs.srv import Trigger
-from visualization_msgs.msg import Marker
 
-from tca_ros.model.params import from_flat_dict, ParameterError, SCHEMA
+from tca_ros.model.params import ParameterError
 from tca_ros.model.resistance import power_from_voltage
 from tca_ros.model.rigs import start_load
 from tca_ros.node_clock import ClockMixin, NS, time_msg, WARN_PERIOD
@@ -45,10 +42,8 @@ from tca_ros.node_spin import spin_resiliently
 from tca_ros.node_task import TaskPlayer
 
 
-STATE_QOS = QoSProfile(depth=10)  # reliable: serves reliable and best-effort readers
 COMMAND_QOS = QoSProfile(depth=10)
 CLOCK_QOS = QoSProfile(depth=1)  # reliable writer; rclpy's clock reader is best effort
-SHAPE_QOS = QoSProfile(depth=1)
 
 MAX_TEMPERATURE_REARM = 1.0  # K below max_temperature before a new crossing is logged
 
@@ -57,34 +52,15 @@ class TcaSimNode(ClockMixin, OutputsMixin, ParametersMixin, Node):
     """Step the TCA model at physics_rate and publish its state at publish_rate.
 
     Here: start-up, the physics episode (commands, watchdog, limits, failure, reset) and
-    the inputs; the time in node_clock.ClockMixin, the outputs in
-    node_outputs.OutputsMixin, parameter changes in node_reconfigure.ParametersMixin.
+    the inputs; the time in node_clock.ClockMixin, the outputs (and their publishers) in
+    node_outputs.OutputsMixin, the parameters (declared, then changed) in
+    node_reconfigure.ParametersMixin.
     """
 
     def __init__(self, **kwargs):
         kwargs['start_parameter_services'] = False  # ours refuse what rclpy cannot convert
         super().__init__('tca', **kwargs)
-        self._parameter_service = GuardedParameterService(self)
-        all_specs = [(s, s.name in READ_ONLY) for s in SCHEMA + NODE_SCHEMA]
-        for spec, _ in all_specs:
-            default = spec.default if spec.name not in NAMESPACED else \
-                namespaced_name(self.get_namespace(), spec.default)
-            self.declare_parameter(spec.name, default, descriptor(spec, with_range=False))
-        check_unknown_overrides(self)  # a misspelt name is refused, as tca_sim does
-        tca_values = {s.name: self.get_parameter(s.name).value for s in SCHEMA}
-        node_values = {s.name: self.get_parameter(s.name).value for s in NODE_SCHEMA}
-        self._params = from_flat_dict(tca_values, source='ros parameters')
-        self._cfg = validate_node_values(node_values)
-        self._sim = build_simulator(self._params, self._cfg)
-        # 1000.0 from a params file is stored as the INTEGER it names, 25 for a DOUBLE
-        # as 25.0: every parameter keeps its declared type.
-        self.set_parameters(numbers_as_declared_types(
-            [self.get_parameter(spec.name) for spec, _ in all_specs]))
-        # Ranges only now: a bad start-up value gets the schema's one-line message above.
-        for spec, read_only in all_specs:
-            self.set_descriptor(spec.name, descriptor(spec, read_only))
-        self.add_pre_set_parameters_callback(numbers_as_declared_types)
-        self.add_on_set_parameters_callback(self._on_set_parameters)
+        self._declare_parameters()
 
         self._rng = np.random.default_rng(int(self._cfg['noise.seed']))
         self._drive = ('power', 0.0)  # last valid command: ('power', W) or ('voltage', V)
@@ -110,18 +86,7 @@ class TcaSimNode(ClockMixin, OutputsMixin, ParametersMixin, Node):
         self._next_shape_wall = 0.0
         self._stepping_paused_until = 0.0  # monotonic s: no catch-up before (overload)
 
-        qos_opts = QoSOverridingOptions.with_default_policies()
-        self._disp_pub = self.create_publisher(Float64, 'displacement', STATE_QOS,
-                                               qos_overriding_options=qos_opts)
-        self._temp_pub = self.create_publisher(Temperature, 'temperature', STATE_QOS,
-                                               qos_overriding_options=qos_opts)
-        self._res_pub = self.create_publisher(Float64, 'resistance', STATE_QOS,
-                                              qos_overriding_options=qos_opts)
-        self._power_pub = self.create_publisher(Float64, 'power', STATE_QOS,
-                                                qos_overriding_options=qos_opts)
-        self._joint_pub = self.create_publisher(JointState, 'joint_states', STATE_QOS,
-                                                qos_overriding_options=qos_opts)
-        self._shape_pub = self.create_publisher(Marker, 'shape', SHAPE_QOS)
+        self._create_output_publishers()
         self._power_sub = self.create_subscription(Float64, 'power_cmd', self._on_power_cmd,
                                                    COMMAND_QOS)
         self._voltage_sub = self.create_subscription(Float64, 'voltage_cmd',

@@ -10,6 +10,8 @@ import time
 
 from geometry_msgs.msg import Point
 import numpy as np
+from rclpy.qos import QoSProfile
+from rclpy.qos_overriding_options import QoSOverridingOptions
 from sensor_msgs.msg import JointState, Temperature
 from std_msgs.msg import Float64
 from visualization_msgs.msg import Marker
@@ -36,8 +38,26 @@ def ros_point(x, y, z):
     return Point(x=float(x), y=float(y), z=float(z))
 
 
+STATE_QOS = QoSProfile(depth=10)  # reliable: serves reliable and best-effort readers
+SHAPE_QOS = QoSProfile(depth=1)
+
+
 class OutputsMixin:
     """State topics, shape Marker and /diagnostics of TcaSimNode."""
+
+    def _create_output_publishers(self):
+        """Create the state topics (QoS overridable by parameters) and ``shape``."""
+        qos_opts = QoSOverridingOptions.with_default_policies()
+
+        def state(msg_type, topic):
+            return self.create_publisher(msg_type, topic, STATE_QOS,
+                                         qos_overriding_options=qos_opts)
+        self._disp_pub = state(Float64, 'displacement')
+        self._temp_pub = state(Temperature, 'temperature')
+        self._res_pub = state(Float64, 'resistance')
+        self._power_pub = state(Float64, 'power')
+        self._joint_pub = state(JointState, 'joint_states')
+        self._shape_pub = self.create_publisher(Marker, 'shape', SHAPE_QOS)
 
     def _muscle_state(self, now_ns=None):
         """Return the MuscleState that /diagnostics reports (model values, no noise)."""

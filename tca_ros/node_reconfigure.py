@@ -15,12 +15,41 @@ from tca_ros.model.params import from_flat_dict, ParameterError, SCHEMA, SPECS
 from tca_ros.model.rigs import start_load
 from tca_ros.node_clock import WARN_PERIOD
 from tca_ros.node_outputs import non_finite
-from tca_ros.node_params import build_simulator, NODE_SPECS, \
-    physics_dt, REBUILD, validate_node_values
+from tca_ros.node_params import build_simulator, check_unknown_overrides, descriptor, \
+    GuardedParameterService, NAMESPACED, namespaced_name, NODE_SCHEMA, NODE_SPECS, \
+    numbers_as_declared_types, physics_dt, READ_ONLY, REBUILD, validate_node_values
 
 
 class ParametersMixin:
     """Parameter requests of TcaSimNode: validate, apply, never raise."""
+
+    def _declare_parameters(self):
+        """Declare the schema's and the node's parameters; build the simulator from them.
+
+        Sets ``_params`` (TcaParams), ``_cfg`` (node settings) and ``_sim``; a bad
+        start-up value raises ParameterError with the schema's one-line message.
+        """
+        self._parameter_service = GuardedParameterService(self)
+        all_specs = [(s, s.name in READ_ONLY) for s in SCHEMA + NODE_SCHEMA]
+        for spec, _ in all_specs:
+            default = spec.default if spec.name not in NAMESPACED else \
+                namespaced_name(self.get_namespace(), spec.default)
+            self.declare_parameter(spec.name, default, descriptor(spec, with_range=False))
+        check_unknown_overrides(self)  # a misspelt name is refused, as tca_sim does
+        tca_values = {s.name: self.get_parameter(s.name).value for s in SCHEMA}
+        node_values = {s.name: self.get_parameter(s.name).value for s in NODE_SCHEMA}
+        self._params = from_flat_dict(tca_values, source='ros parameters')
+        self._cfg = validate_node_values(node_values)
+        self._sim = build_simulator(self._params, self._cfg)
+        # 1000.0 from a params file is stored as the INTEGER it names, 25 for a DOUBLE
+        # as 25.0: every parameter keeps its declared type.
+        self.set_parameters(numbers_as_declared_types(
+            [self.get_parameter(spec.name) for spec, _ in all_specs]))
+        # Ranges only now: a bad start-up value gets the schema's one-line message above.
+        for spec, read_only in all_specs:
+            self.set_descriptor(spec.name, descriptor(spec, read_only))
+        self.add_pre_set_parameters_callback(numbers_as_declared_types)
+        self.add_on_set_parameters_callback(self._on_set_parameters)
 
     def _on_set_parameters(self, parameters):
         """Check new values against the schema and cross-parameter rules; apply them.

@@ -21,8 +21,8 @@ from sensor_msgs.msg import Temperature
 from std_msgs.msg import Float64
 
 from tca_ros.model.rigs import ANTAGONISTIC, ISOMETRIC, SPRING
+from tca_ros.node_outputs import STATE_QOS  # as the node's state topics
 
-STATE_QOS = QoSProfile(depth=10)  # as the node's state topics
 COMMAND_QOS = QoSProfile(depth=10)
 WARN_PERIOD = 1.0  # s between repeats of a throttled warning
 _NS = 1_000_000_000
