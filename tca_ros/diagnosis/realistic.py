@@ -134,12 +134,17 @@ def conditions(seed):
             'jitter': seed % 4 == 1, 'not_at_rest': seed % 4 == 3}
 
 
-def truth_path(directory, seed):
+def truth_path(directory, seed, take=0):
     """Return the path of the truth params file realistic_case writes for ``seed``."""
-    return os.path.join(directory, f'truth_{seed}.yaml')
+    return os.path.join(directory, f'truth_{seed}{_take_suffix(take)}.yaml')
 
 
-def realistic_case(seed, hidden, directory, duration=240.0, **overrides):
+def _take_suffix(take):
+    """Return the file-name suffix of record ``take`` of a muscle ('' for the first)."""
+    return f'_{take}' if take else ''
+
+
+def realistic_case(seed, hidden, directory, duration=240.0, mass=None, take=0, **overrides):
     """Write one bench-like record and its muscle description; return (record, start) paths.
 
     The muscle is drawn by :func:`draw_muscle`; ``hidden`` lists catalogue effects
@@ -147,22 +152,30 @@ def realistic_case(seed, hidden, directory, duration=240.0, **overrides):
     (:func:`conditions`) vary with ``seed`` unless ``overrides`` set them. The
     description (start params, model cst) is what a maker would write; the
     plant's params (truth, effects included) go to :func:`truth_path`.
+    ``mass`` (kg) replaces the drawn hanging mass. ``take`` > 0 makes another
+    record of the same muscle with the same effects: its power profile and its
+    noise are drawn anew.
     """
     rng = np.random.default_rng(seed)
+    other = np.random.default_rng([seed, take]) if take else None
     cond = {**conditions(seed), **overrides}
     start, truth, _, _ = draw_muscle(rng)
     rate = cond['rate']
     pre = 60.0 if cond['not_at_rest'] else 0.0
     time_s = np.arange(int(round((duration + pre) * rate)) + 1) / rate - pre
     power = random_power_profile(rng, time_s + pre)
+    if other is not None:  # the first take's draws are made all the same: same muscle
+        power = random_power_profile(other, time_s + pre)
     if pre:  # heat 30-60 s before the record, then let it cool: it starts warm
         power[time_s < 0.0] = np.where(time_s[time_s < 0.0] < -30.0, 0.5, 0.0)
         power[(time_s >= 0.0) & (time_s < 3.0)] = 0.0
-    mass = rng.uniform(0.015, 0.04)
+    drawn = rng.uniform(0.015, 0.04)
+    mass = drawn if mass is None else mass
     load = np.full_like(time_s, mass * GRAVITY)
     truth = truth.with_values(**{'dynamics.mass': mass, 'dynamics.load': mass * GRAVITY})
     inside = [h for h in hidden if h in CATALOGUE]
     truth = truth.with_values(**draw_effect_values(rng, inside))
+    rng = rng if other is None else other
     n = time_s.size
     applied = power
     if cond['nominal_power']:  # the plant got +-3 % slow variation, the log the command
@@ -196,11 +209,11 @@ def realistic_case(seed, hidden, directory, duration=240.0, **overrides):
     dump_params(start.with_values(model='cst'), start_path)
     # the plant's own parameters (effects included), for benchmarks that ask whether
     # the truth itself passes the verdict's test on the logged record
-    dump_params(truth.with_values(model=cond['plant']), truth_path(directory, seed))
+    dump_params(truth.with_values(model=cond['plant']), truth_path(directory, seed, take))
     record = Record(time=stamps, power=logged, load=load, displacement=x - x[0],
                     temperature=temperature,
                     meta={'tca': os.path.basename(start_path), 'mass_kg': round(mass, 6),
                           'sample_rate_hz': rate})
-    path = os.path.join(directory, f'record_{seed}.csv')
+    path = os.path.join(directory, f'record_{seed}{_take_suffix(take)}.csv')
     write_csv_record(record, path)
     return path, start_path
