@@ -14,6 +14,7 @@ import pytest
 from tca_ros.diagnosis import diagnose, format_summary
 from tca_ros.diagnosis.data import write_csv_record
 from tca_ros.diagnosis.realistic import bench_record, realistic_case, realistic_set
+from tca_ros.diagnosis.verdict import ONE_LOAD_NOTE
 from tca_ros.model.params import dump_params, GRAVITY
 from tca_ros.model.simulation import simulate
 
@@ -326,6 +327,7 @@ def test_a_sensor_nonlinearity_one_load_hides_is_exposed_by_two_loads_together(t
     one, start = records(['sensor_nonlinearity'], [0.025])
     alone = diagnose(one[0], start, progress=False)
     assert alone.effects == [] and alone.verdict == 'adequate', alone.explanation
+    assert ONE_LOAD_NOTE in alone.notes  # the report says what one load cannot test
     paths, start = records(['sensor_nonlinearity'], [0.015, 0.04])
     together = diagnose(paths, start, progress=False)
     print(format_summary(together))
@@ -334,3 +336,4 @@ def test_a_sensor_nonlinearity_one_load_hides_is_exposed_by_two_loads_together(t
     paths, start = records([], [0.015, 0.04])
     twin = diagnose(paths, start, progress=False)
     assert twin.effects == [] and twin.verdict == 'adequate', twin.explanation
+    assert ONE_LOAD_NOTE not in twin.notes

@@ -294,3 +294,19 @@ def test_a_joint_fit_is_taken_only_when_it_explains_and_beats_the_nominal(monkey
     assert [f.name for f in rivals] == ['creep', 'dead_time']
     monkeypatch.setattr(joint, 'lowers_heldout_rms', lambda problems, sims, rmse: False)
     assert best_joint(fits, [], [], {}) == (None, [])
+
+
+def test_one_load_is_a_single_load_level_over_all_records():
+    from tca_ros.diagnosis.record import Record
+    from tca_ros.diagnosis.verdict import holds_one_load
+
+    def record(load):
+        n = len(load)
+        return Record(time=np.arange(n) * 0.1, power=np.zeros(n), load=np.asarray(load),
+                      displacement=np.zeros(n))
+
+    assert holds_one_load([record([0.2] * 5)])
+    assert holds_one_load([record([0.2, 0.2, 0.205]), record([0.201] * 3)])  # 2.5 %
+    assert holds_one_load([record([0.0] * 4)])
+    assert not holds_one_load([record([0.2, 0.2, 0.4, 0.4])])  # a load step
+    assert not holds_one_load([record([0.15] * 3), record([0.39] * 3)])  # two records

@@ -16,8 +16,8 @@ from tca_ros.diagnosis.nominal import calibrate_training_part, candidates_of, no
     read_any, record_nominal
 from tca_ros.diagnosis.progress import Progress
 from tca_ros.diagnosis.search import MIN_GAIN_PERCENT, search_effects
-from tca_ros.diagnosis.verdict import channel_stats, decide_verdict, gain, \
-    needs_explaining, NOTHING_TO_EXPLAIN, pooled_heldout_rmse
+from tca_ros.diagnosis.verdict import channel_stats, decide_verdict, gain, holds_one_load, \
+    needs_explaining, NOTHING_TO_EXPLAIN, ONE_LOAD_NOTE, pooled_heldout_rmse
 from tca_ros.model.params import SPECS
 
 VERDICTS = ('explained', 'adequate', 'unexplained')
@@ -285,6 +285,8 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
                        + ' sits at the end of its physical range: the data ask for more '
                        'than the effect can be, so it stands in for a cause that is not in '
                        'the catalogue and is not named')
+    if verdict in ('adequate', 'explained') and holds_one_load(records):
+        notes.append(ONE_LOAD_NOTE)
     helpful = []
     if verdict == 'unexplained' and effects:
         # what helps is shown, but an effect that leaves structure is not a cause

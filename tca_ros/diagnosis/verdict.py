@@ -80,6 +80,26 @@ NOTHING_TO_EXPLAIN = ('no effect searched: the inputs predict nothing beyond the
                       'record)')
 
 
+#: load levels within this share of the largest are one load (N / N)
+ONE_LOAD_SPREAD = 0.05
+ONE_LOAD_NOTE = ('every record holds one load: a static distortion of the displacement '
+                 'reading (a sensor nonlinearity, a lever) cannot be told from the calibrated '
+                 'stroke-temperature relation on one load; diagnose records at two or more '
+                 'loads together to test for it (docs/diagnosis.md section 18)')
+
+
+def holds_one_load(records):
+    """Return True when the records' load channels (N) span a single load level.
+
+    On one load the stroke is a static function of the fibre temperature, and
+    the calibrated steady rise and actuation gain (with eq. 2's quadratic in
+    temperature) can reshape it: a smooth static map of the reading is absorbed.
+    """
+    loads = [float(v) for r in records for v in (r.load.min(), r.load.max())]
+    top = max(abs(v) for v in loads)
+    return top == 0.0 or max(loads) - min(loads) <= ONE_LOAD_SPREAD * top
+
+
 def needs_explaining(*stats):
     """Return the channels (list) of {channel: ResidualStats} with structure left.
 
