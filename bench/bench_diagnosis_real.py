@@ -24,7 +24,7 @@ shows there (docs/diagnosis.md section 18).
 With ``--real DIR`` the shared real records are diagnosed together too.
 
     python bench/bench_diagnosis_real.py [--null 12] [--per-effect 3] [--pairs 8]
-                                          [--outside 8] [--jobs 2] [--real DIR]
+                                          [--outside 12] [--jobs 2] [--real DIR]
 
 Printed figures, not assertions.
 """
@@ -206,7 +206,7 @@ def main(argv=None):
     parser.add_argument('--null', type=int, default=12)
     parser.add_argument('--per-effect', type=int, default=3)
     parser.add_argument('--pairs', type=int, default=8)
-    parser.add_argument('--outside', type=int, default=8)
+    parser.add_argument('--outside', type=int, default=12)
     parser.add_argument('--jobs', type=int, default=2)
     parser.add_argument('--seed', type=int, default=9000)
     parser.add_argument('--save', default='', help='write the rows as JSON to this file')
