@@ -12,8 +12,8 @@ from tca_ros.diagnosis.candidates import ABSORBED, absorbed_candidates, paramete
 from tca_ros.diagnosis.data import DataError, record_config
 from tca_ros.diagnosis.holdout import AUTO, choose_validation, DEFAULT_VALIDATION
 from tca_ros.diagnosis.joint import beats_nominal, joint_extension, JOINT_NFEV, joint_notes
-from tca_ros.diagnosis.nominal import calibrate_training_part, candidates_of, nominal_problems, \
-    read_any, record_nominal
+from tca_ros.diagnosis.nominal import calibrate_training_part, candidates_of, DiagnosisError, \
+    nominal_with_fallback, read_any, record_nominal
 from tca_ros.diagnosis.progress import Progress
 from tca_ros.diagnosis.search import MIN_GAIN_PERCENT, search_effects
 from tca_ros.diagnosis.verdict import channel_stats, decide_verdict, gain, holds_one_load, \
@@ -23,14 +23,6 @@ from tca_ros.model.params import SPECS
 VERDICTS = ('explained', 'adequate', 'unexplained')
 #: Rough count of simulations of a diagnosis, for the progress bar.
 EXPECTED_SIMULATIONS = 200
-
-
-class DiagnosisError(ValueError):
-    """The nominal model cannot be simulated on the record (CLI exit status 1).
-
-    A ValueError, as the simulator's own errors are, but not a DataError: the CLI
-    maps it to exit status 1 (fit failed), DataError to 2 (bad input).
-    """
 
 
 @dataclass
@@ -195,30 +187,12 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
     options = dict(model=model, physics_rate=physics_rate,
                    fit_rate=fit_rate or fitting.FIT_RATE_HZ, train_fraction=fraction,
                    progress=bar, validation=validation)
-    recalibrated = cal is not None or bool(calibrated)
     try:
-        problems, problem, start_values, nominals = nominal_problems(
-            records, params_of, recalibrated, options, paths)
-    except DataError:
+        problems, problem, start_values, nominals, cal, params_of = nominal_with_fallback(
+            records, params_of, cal, bool(calibrated), base, options, notes, paths)
+    except (DataError, DiagnosisError):
         bar.close()
         raise
-    except (ValueError, ArithmeticError) as exc:  # StabilityError is a ValueError
-        if cal is None:
-            bar.close()
-            raise DiagnosisError(f'{data_path}: the nominal model cannot simulate this '
-                                 f'record with model={model} ({exc})') from None
-        # the training part's calibration drove the record outside the model's range
-        # (e.g. beyond the melt on the held-out part): diagnose against the description
-        cal, params_of = None, [record_nominal(base, r) for r in records]
-        notes[-1] = (f'calibration not used: its nominal model cannot simulate the whole '
-                     f'record ({str(exc).splitlines()[0]})')
-        try:
-            problems, problem, start_values, nominals = nominal_problems(
-                records, params_of, False, options, paths)
-        except (ValueError, ArithmeticError) as again:
-            bar.close()
-            raise DiagnosisError(f'{data_path}: the nominal model cannot simulate this '
-                                 f'record with model={model} ({again})') from None
     params = params_of[0]
     candidates, absorbed = absorbed_candidates(
         candidates_of(records, params, model, problems, nominals), problem.recalibration)

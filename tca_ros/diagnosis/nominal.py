@@ -20,6 +20,46 @@ INITIAL_WINDOW_S = 1.0  # s at the start of a record taken as ambient equilibriu
 CALIBRATION_RATE_HZ = 10.0  # the calibrate-first step fits block means at about this rate
 
 
+class DiagnosisError(ValueError):
+    """The nominal model cannot be simulated on the record (CLI exit status 1).
+
+    A ValueError, as the simulator's own errors are, but not a DataError: the CLI
+    maps it to exit status 1 (fit failed), DataError to 2 (bad input).
+    """
+
+
+def nominal_with_fallback(records, params_of, cal, from_file, base, options, notes, paths):
+    """Return (problems, problem, start values, nominal sims, cal, params per record).
+
+    The nominal problems (:func:`nominal_problems`) with the calibrated
+    ``params_of`` (``cal`` the Calibration, or ``from_file`` for a calibrated
+    params file: either keeps the nominal parameters free in the search). When
+    the training part's calibration drove a record outside the model's range
+    (e.g. beyond the melt on the held-out part), the diagnosis goes on against
+    the description ``base``: ``cal`` becomes None and the last of ``notes``
+    (the calibration's) says why. Raises DataError for records whose channels
+    differ, DiagnosisError when not even the description can simulate them.
+    """
+    model = options['model']
+    try:
+        return nominal_problems(records, params_of, cal is not None or from_file, options,
+                                paths) + (cal, params_of)
+    except DataError:
+        raise
+    except (ValueError, ArithmeticError) as exc:  # StabilityError is a ValueError
+        if cal is None:
+            raise DiagnosisError(f'{paths[0]}: the nominal model cannot simulate this '
+                                 f'record with model={model} ({exc})') from None
+        params_of = [record_nominal(base, r) for r in records]
+        notes[-1] = (f'calibration not used: its nominal model cannot simulate the whole '
+                     f'record ({str(exc).splitlines()[0]})')
+    try:
+        return nominal_problems(records, params_of, False, options, paths) + (None, params_of)
+    except (ValueError, ArithmeticError) as again:
+        raise DiagnosisError(f'{paths[0]}: the nominal model cannot simulate this '
+                             f'record with model={model} ({again})') from None
+
+
 def nominal_problems(records, params_of, recalibrated, options, paths):
     """Return (problems, problem or set, start values, nominal simulations).
 
