@@ -3,10 +3,10 @@ import numpy as np
 import pytest
 
 from tca_ros.model.params import load_params
-from tca_ros.model.quasistatic import (
-    delayed_input, ExactHelixStatics, first_order_response, QuasiStaticUnsupported,
-    simulate_quasistatic, static_map)
+from tca_ros.model.quasistatic import QuasiStaticUnsupported, simulate_quasistatic
+from tca_ros.model.quasistatic_signals import delayed_input, first_order_response
 from tca_ros.model.simulation import simulate
+from tca_ros.model.static_maps import ExactHelixStatics, static_map
 
 
 def _step_profile(rate, power=1.0):

@@ -43,8 +43,9 @@ from tca_ros.diagnosis.progress import Progress
 from tca_ros.model.effects import CATALOGUE
 from tca_ros.model.end_motion import critical_damping
 from tca_ros.model.kinetostatics import static_elongation
-from tca_ros.model.quasistatic import make_statics, QuasiStaticPlant
+from tca_ros.model.quasistatic import QuasiStaticPlant
 from tca_ros.model.simulation import simulate
+from tca_ros.model.static_maps import make_statics
 from tca_ros.model.thermal import heat_capacity, surface_area, thermal_conductance
 
 DEFAULT_FIT = ('thermal_time_constant', 'steady_rise', 'actuation_gain', 'stiffness_scale',

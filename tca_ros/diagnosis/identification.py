@@ -158,7 +158,7 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
     from tca_ros.model.params import load_params
     from tca_ros.diagnosis import fitting
 
-    from tca_ros.model.quasistatic import clear_map_cache
+    from tca_ros.model.static_maps import clear_map_cache
     start = wallclock.perf_counter()
     clear_map_cache()  # identical inputs give identical numbers (the maps grow on demand)
     paths = ([data_path] if isinstance(data_path, (str, os.PathLike))

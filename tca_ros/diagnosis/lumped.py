@@ -17,7 +17,7 @@ import numpy as np
 
 from tca_ros.diagnosis import engine
 from tca_ros.diagnosis.calibration import normalised_rmse, peak_stroke
-from tca_ros.model.quasistatic import delayed_input, first_order_response
+from tca_ros.model.quasistatic_signals import delayed_input, first_order_response
 
 
 def lumped_response(time, power, gain, tau, delay):

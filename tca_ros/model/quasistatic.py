@@ -24,250 +24,31 @@ quasistatic_effects.py, radiation and nonlinear convection (eq. (1) stepped by R
 on the record's grid; the linear eq. (1) keeps the exact filter), hysteresis (the
 play operator on the actuation temperature before the static maps) and creep (a
 Kelvin-Voigt filter of the tension added to the elongation).
+The static maps and their cache are in static_maps.py, the thermal and input
+filters in quasistatic_signals.py; this module puts them together per record.
 ``QuasiStaticUnsupported`` remains for a coil that is not a helix (rod model) and
 a voltage supply under a load of too many distinct values.
 """
-import collections
 import math
 
 import numpy as np
 from scipy.interpolate import CubicSpline
-from scipy.signal import lfilter
 
 from tca_ros.model import effects as fx
 from tca_ros.model import quasistatic_effects as qe
-from tca_ros.model.kinetostatic_models import make_kinetostatic_model
 from tca_ros.model.kinetostatics import contact_elongation
+from tca_ros.model.quasistatic_signals import actuating_temperature, first_order_response, \
+    thermal_response
+from tca_ros.model.quasistatic_voltage import voltage_drive
 from tca_ros.model.resistance import resistance
-from tca_ros.model.rod_model import helix_elongation, mechanical_params
+from tca_ros.model.rod_model import mechanical_params
 from tca_ros.model.simulation import SimulationResult
-from tca_ros.model.thermal import heat_capacity, thermal_conductance
+from tca_ros.model.static_maps import cached_map, make_statics, map_covers, MAP_EXTENSION, \
+    MAP_MARGIN, QuasiStaticUnsupported, static_map, store_map
 
 MAP_TEMP_STEP = 2.0  # K between the static map's grid points (linear interpolation)
-MAP_MARGIN = 4.0  # K beyond the lowest and highest temperature of a record
-MAP_EXTENSION = 30.0  # K added when a cached map must grow
-VOLTAGE_TABLE_STEP = 0.1  # K, fine table of the static map read by the voltage-drive loop
-STIFFNESS_LOAD_STEP = 1e-4  # relative load step for k = dF / dy of the static map
 MAX_DISTINCT_LOADS = 16  # static maps solved per simulation; beyond, interpolated in load
 LOAD_LEVELS = 9  # maps spanning a load that takes more values (ramps)
-MAP_CACHE_SIZE = 64  # static maps kept between plants (a fit changes thermal values most)
-VOLTAGE_POWER_MARGIN = 2.0  # bound on P R0 / R over P (RK4 substeps of a voltage supply)
-
-
-class QuasiStaticUnsupported(ValueError):
-    """The reduction cannot represent this TCA or input: use simulation.simulate."""
-
-
-def thermal_response(time, power, params):
-    """Return T (degC) at ``time`` (s) under zero-order-hold ``power`` (W), eq. (1).
-
-    Exact for the linear eq. (1): over each interval the temperature relaxes to
-    T_inf + P_in / (h c_s A_0) with the time constant m_t c_p / (h c_s A_0). P_in
-    is the logged power times ``thermal.delivered_power_ratio`` and (1 - power
-    loss), delayed by ``effects.dead_time`` when set; the start is at ambient.
-    With radiation or nonlinear convection, eq. (1') of quasistatic_effects (RK4).
-    """
-    time = np.asarray(time, dtype=float)
-    heating = fx.heating_power(np.asarray(power, dtype=float), params.effects,
-                               params.thermal.delivered_power_ratio)
-    heating = delayed_input(time, heating, params.effects.dead_time)
-    balance = qe.HeatBalance.of(params)
-    if not balance.linear:
-        return qe.nonlinear_thermal_response(time, heating, balance)
-    conductance = thermal_conductance(params.fiber, params.thermal)
-    tau = heat_capacity(params.fiber) / conductance
-    ambient = fx.true_ambient(params.thermal, params.effects)
-    return ambient + first_order_response(time, heating / conductance, tau)
-
-
-def actuating_temperature(time, temperature, params):
-    """Return the fiber temperature T_f (degC) behind the second thermal lag.
-
-    tau_2 dT_f/dt = T - T_f ('second_thermal_lag' in effects.py), T (degC) at ``time``
-    (s) linear between samples; T_f = T when the lag is off.
-    """
-    tau = params.effects.second_thermal_lag
-    if tau <= 0.0:
-        return temperature
-    start = temperature[0]
-    return start + first_order_response(time, temperature - start, tau, held=False)
-
-
-def first_order_response(time, target, tau, held=True):
-    """Return y(t) of tau y' = target - y, y(0) = 0 (units of ``target``; tau in s).
-
-    ``held``: the target is held constant over each interval (zero-order hold,
-    exact); otherwise it is taken linear between samples (first-order hold, exact
-    for a piecewise-linear target). Uniform or non-uniform time grids.
-    """
-    time = np.asarray(time, dtype=float)
-    target = np.asarray(target, dtype=float)
-    out = np.zeros_like(target)
-    if time.size < 2:
-        return out
-    dt = np.diff(time)
-    if tau <= 0.0:
-        return target.copy() if not held else np.concatenate(([0.0], target[:-1]))
-    if np.ptp(dt) <= 1e-9 * dt.mean():
-        a = math.exp(-dt[0] / tau)
-        if held:
-            out[1:] = lfilter([1.0 - a], [1.0, -a], target[:-1])
-        else:
-            # y_{k+1} = a y_k + (1 - a) u_{k+1} - (a - c)(u_{k+1} - u_k), c = (1 - a) tau / dt
-            c = (1.0 - a) * tau / dt[0]
-            b0, b1 = 1.0 - c, c - a
-            out[1:] = lfilter([b0, b1], [1.0, -a], target[1:], zi=[b1 * target[0]])[0]
-        return out
-    for k, h in enumerate(dt):
-        a = math.exp(-h / tau)
-        if held:
-            out[k + 1] = a * out[k] + (1.0 - a) * target[k]
-        else:
-            c = (1.0 - a) * tau / h
-            out[k + 1] = a * out[k] + (1.0 - c) * target[k + 1] + (c - a) * target[k]
-    return out
-
-
-def delayed_input(time, values, delay):
-    """Return the zero-order-hold signal ``values`` delayed by ``delay`` (s).
-
-    Each interval [t_k, t_k+1) carries the mean of the delayed signal over it, so
-    the heat delivered is preserved and the result is continuous in ``delay``
-    (what a gradient-based fit needs). Before the record starts the signal is
-    its first value.
-    """
-    values = np.asarray(values, dtype=float)
-    if delay <= 0.0 or values.size < 2:
-        return values
-    time = np.asarray(time, dtype=float)
-    # cumulative integral of the held signal, evaluated at shifted interval ends
-    dt = np.diff(time)
-    integral = np.concatenate(([0.0], np.cumsum(values[:-1] * dt)))
-
-    def cumulative(t):
-        t = np.asarray(t, dtype=float)
-        before = np.minimum(t - time[0], 0.0) * values[0]
-        k = np.clip(np.searchsorted(time, t, side='right') - 1, 0, time.size - 1)
-        inside = integral[k] + values[k] * (np.maximum(t, time[0]) - time[k])
-        return np.where(t < time[0], before, inside)
-
-    start, end = time[:-1] - delay, time[1:] - delay
-    out = values.copy()
-    out[:-1] = (cumulative(end) - cumulative(start)) / dt
-    out[-1] = out[-2]
-    return out
-
-
-def static_map(model, load, temperatures, stop=None, stiffness_every=4):
-    """Return (y_eq (m), k (N/m)) on ``temperatures`` (degC) under ``load`` (N).
-
-    y_eq solves f_rod(y, T) = load (eq. (18) at rest) with the coil-contact stop
-    ``stop`` (m, None: no stop); k is the axial stiffness dF/dy there (inf in contact), solved at
-    every ``stiffness_every``-th temperature and interpolated (it only sets the
-    mechanical lag b / k).
-    """
-    temps = np.asarray(temperatures, dtype=float)
-    step = max(abs(load), 1e-3) * STIFFNESS_LOAD_STEP
-    sub = np.unique(np.concatenate((np.arange(0, temps.size, stiffness_every),
-                                    [temps.size - 1])))
-    many = getattr(model, 'equilibrium_elongations', None)  # one vectorised solve
-    solve = getattr(model, 'loaded_equilibrium', model.equilibrium_elongation)
-    if many is not None:
-        y = np.array(many(load, temps), dtype=float)
-    else:
-        y = np.empty(temps.size)
-        guess = None
-        for i, temp in enumerate(temps):
-            guess = solve(load, float(temp), guess=guess)
-            y[i] = guess
-    if not np.all(np.isfinite(y)):
-        raise ArithmeticError(f'static map: no equilibrium under load = {load:g} N')
-    if many is not None:
-        up = np.asarray(many(load + step, temps[sub]), dtype=float)
-    else:
-        up = np.array([solve(load + step, float(temps[i]), guess=y[i]) for i in sub])
-    with np.errstate(invalid='ignore'):
-        rising = up > y[sub]
-    k_sub = np.where(rising, step / np.where(rising, up - y[sub], 1.0), 1e12)
-    k = np.interp(temps, temps[sub], k_sub)
-    if stop is not None:
-        in_contact = y < stop
-        y[in_contact] = stop
-        k[in_contact] = math.inf
-    return y, k
-
-
-class ExactHelixStatics:
-    """Static equilibrium of the rod model without its dynamics table.
-
-    The rod model's equilibrium of a helical TCA under an axial end load is the
-    exact uniform helix (rod_model.helix_elongation); a fit that changes the
-    mechanical parameters at every evaluation needs only that, not the
-    (elongation, temperature) table the time stepper interpolates.
-    """
-
-    name = 'rod'
-
-    def __init__(self, params):
-        if params.coil.shape != 'helix':
-            raise QuasiStaticUnsupported(
-                f'coil.shape = {params.coil.shape!r}: the quasi-static reduction needs a '
-                'helix')
-        self.params = params
-        self.natural_length = params.fiber.length * math.sin(params.coil.pitch_angle)
-
-    def equilibrium_elongation(self, load, temperature, guess=None):
-        """Return y (m) with f_rod(y, T) = load (N) at temperature (degC), no contact."""
-        return float(helix_elongation(self.params, temperature, load))
-
-    def equilibrium_elongations(self, load, temperatures):
-        """Return y (m) per temperature (degC, array) under one load (N): one solve.
-
-        NaN where the exact helix fails (as :meth:`equilibrium_elongation`).
-        """
-        temps = np.asarray(temperatures, dtype=float)
-        return helix_elongation(self.params, temps, np.full(temps.shape, float(load)))
-
-
-def make_statics(params, model=None):
-    """Return the static-equilibrium solver of ``model`` (rod | cst | love)."""
-    name = model or params.model
-    if name == 'rod':
-        return ExactHelixStatics(params)
-    return make_kinetostatic_model(params, name)
-
-
-_MAP_CACHE = collections.OrderedDict()  # (mechanical params, model, load) -> map
-
-
-def clear_map_cache():
-    """Forget every cached static map.
-
-    A map grows when a record needs temperatures beyond it, so what a simulation
-    reads depends on the maps earlier calls left; a caller that must give the
-    same numbers for the same inputs (a diagnosis, a calibration) starts empty.
-    """
-    _MAP_CACHE.clear()
-
-
-def _cached_map(key):
-    entry = _MAP_CACHE.get(key)
-    if entry is not None:
-        _MAP_CACHE.move_to_end(key)
-    return entry
-
-
-def _store_map(key, entry):
-    _MAP_CACHE[key] = entry
-    _MAP_CACHE.move_to_end(key)
-    while len(_MAP_CACHE) > MAP_CACHE_SIZE:
-        _MAP_CACHE.popitem(last=False)
-
-
-def _covers(entry, low, high):
-    """Return True when a cached map ``entry`` spans [low, high] (degC) with margins."""
-    return entry is not None and entry[0][0] <= low - MAP_MARGIN \
-        and entry[0][-1] >= high + MAP_MARGIN
 
 
 class QuasiStaticPlant:
@@ -300,10 +81,10 @@ class QuasiStaticPlant:
         """
         cached = self._own.get(load)
         key = None
-        if self._key is not None and not _covers(cached, low, high):
+        if self._key is not None and not map_covers(cached, low, high):
             key = self._key + (load,)
-            cached = _cached_map(key) or cached
-        if _covers(cached, low, high):
+            cached = cached_map(key) or cached
+        if map_covers(cached, low, high):
             self._own[load] = cached
             return cached
         if cached is not None:  # extend generously: a voltage drive asks degree by degree
@@ -323,7 +104,7 @@ class QuasiStaticPlant:
         # finite differences must not see interpolation kinks
         entry = (grid, CubicSpline(grid, y), k)
         if self._key is not None:
-            _store_map(key or self._key + (load,), entry)
+            store_map(key or self._key + (load,), entry)
         self._own[load] = entry
         return entry
 
@@ -349,8 +130,8 @@ class QuasiStaticPlant:
                 f'solves at most {MAX_DISTINCT_LOADS}: use simulation.simulate')
         e = params.effects
         if supply == 'voltage':
-            temperature, fiber = self._voltage_drive(time, power, acting,
-                                                     qe.creep_elongation(time, load, e))
+            temperature, fiber = voltage_drive(self, time, power, acting,
+                                               qe.creep_elongation(time, load, e))
         elif supply == 'power':
             temperature = thermal_response(time, power, params)
             fiber = actuating_temperature(time, temperature, params)
@@ -364,7 +145,7 @@ class QuasiStaticPlant:
             held = load[np.searchsorted(time, grid, side='right') - 1]
             acting = np.concatenate(([load[0]], held[:-1]))
         y_eq, stiffness = self._equilibria(actuating, acting, distinct)
-        y_ref = self._reference(float(load[0]))
+        y_ref = self.reference_elongation(float(load[0]))
         creep = qe.creep_elongation(grid, held, e)  # the free end's tension is the load
         # the coil and the creep element in series: q = y_coil + y_c, behind the lag
         elongation = _mechanical_lag(grid, y_eq + creep, stiffness, params.dynamics.damping)
@@ -387,7 +168,7 @@ class QuasiStaticPlant:
                                 temperature=temperature, resistance=r, tension=tension,
                                 velocity=velocity, true_displacement=contraction, substeps=0)
 
-    def _lookup(self, load, temperature):
+    def lookup(self, load, temperature):
         """Return (y_eq (m), k (N/m)) at temperatures (degC) under load (N), contact on."""
         temperature = np.asarray(temperature, dtype=float)
         low = min(float(np.min(temperature)), self.ambient)
@@ -398,14 +179,14 @@ class QuasiStaticPlant:
         contact = y < self.stop
         return np.where(contact, self.stop, y), np.where(contact, math.inf, k)
 
-    def _reference(self, load):
-        return float(self._lookup(load, self.ambient)[0])
+    def reference_elongation(self, load):
+        return float(self.lookup(load, self.ambient)[0])
 
     def loaded_length(self, load):
         """Return the loaded length l* + y_ref (m) at ambient under ``load`` (N)."""
-        return self.kinetostatics.natural_length + self._reference(load)
+        return self.kinetostatics.natural_length + self.reference_elongation(load)
 
-    def _friction_offsets(self):
+    def friction_offsets(self):
         """Return the load offsets (N) of the band edges: -F_s, F_s, -F_k, F_k."""
         e = self.params.effects
         static = e.friction_force * e.static_friction_ratio
@@ -421,7 +202,7 @@ class QuasiStaticPlant:
         play run again.
         """
         damping = self.params.dynamics.damping
-        offsets = self._friction_offsets()
+        offsets = self.friction_offsets()
         edges = [_mechanical_lag(time, *self._equilibria(actuating, acting + offset,
                                                          distinct + offset), damping)
                  for offset in offsets]
@@ -446,10 +227,10 @@ class QuasiStaticPlant:
             stiffness = np.empty_like(actuating)
             for value in distinct:
                 sel = acting == value
-                y_eq[sel], stiffness[sel] = self._lookup(float(value), actuating[sel])
+                y_eq[sel], stiffness[sel] = self.lookup(float(value), actuating[sel])
             return y_eq, stiffness
         levels = np.linspace(distinct[0], distinct[-1], LOAD_LEVELS)
-        maps = [self._lookup(float(level), actuating) for level in levels]
+        maps = [self.lookup(float(level), actuating) for level in levels]
         ys = np.array([m[0] for m in maps])
         ks = np.array([m[1] for m in maps])
         i = np.clip(np.searchsorted(levels, acting, side='right') - 1, 0, LOAD_LEVELS - 2)
@@ -460,98 +241,6 @@ class QuasiStaticPlant:
             stiffness = np.where(np.isfinite(ks[i, cols]) & np.isfinite(ks[i + 1, cols]),
                                  ks[i, cols] + w * (ks[i + 1, cols] - ks[i, cols]), math.inf)
         return y_eq, stiffness
-
-    def _voltage_drive(self, time, power, acting, creep):
-        """Return (T, T_f) (degC) of eq. (1) stepped with P = P_nominal R0 / R(T, x).
-
-        Sample by sample: exact per step while eq. (1) is linear, RK4
-        (quasistatic_effects) with radiation or nonlinear convection. The static
-        maps are sampled once on a fine temperature grid (VOLTAGE_TABLE_STEP) and
-        read by linear interpolation in the loop, at the actuation temperature
-        (play operator with hysteresis); R(T, x) sees the end with the creep
-        elongation ``creep`` (m) added. T_f is the fiber temperature behind the
-        second thermal lag.
-        """
-        p = self.params
-        e, effects = p.electrical, p.effects
-        conductance = thermal_conductance(p.fiber, p.thermal)
-        decay = np.exp(-np.diff(time) * conductance / heat_capacity(p.fiber))
-        lag = effects.second_thermal_lag
-        lag_decay = np.exp(-np.diff(time) / lag) if lag > 0.0 else None
-        nominal = delayed_input(time, fx.heating_power(
-            power, effects, p.thermal.delivered_power_ratio), effects.dead_time)
-        y_ref = self._reference(float(acting[0]))
-        length = self.kinetostatics.natural_length + y_ref
-        t0 = p.thermal.ambient_temperature
-        n = time.size
-        temp = np.full(n, self.ambient)
-        fiber = np.full(n, self.ambient)
-        width = effects.hysteresis_width
-        actuation = fiber if width <= 0.0 else np.full(n, self.ambient)  # degC, play output
-        balance = qe.HeatBalance.of(p)
-        intervals = np.diff(time)
-        substeps = None if balance.linear else qe.rk4_substeps(
-            intervals, VOLTAGE_POWER_MARGIN * nominal[:-1], balance)
-        y_eq = np.empty(n)
-        stiffness = np.empty(n)
-        position = y_eq  # m, the end as R(T, x) sees it: with friction, the play output
-        if effects.friction_force > 0.0:
-            position = np.empty(n)
-        tables = {}
-        top = qe.equilibrium_bound(VOLTAGE_POWER_MARGIN * float(np.max(nominal, initial=0.0)),
-                                   balance) + 20.0  # degC, also without convection
-
-        def table(load, t_fiber):
-            entry = tables.get(load)
-            if entry is None or t_fiber > entry[0] + entry[1] * (entry[2].size - 2):
-                high = max(top, t_fiber + MAP_EXTENSION)
-                grid = np.arange(self.ambient - MAP_MARGIN, high, VOLTAGE_TABLE_STEP)
-                y, k = self._lookup(load, grid)
-                entry = tables[load] = (float(grid[0]), VOLTAGE_TABLE_STEP, y, k)
-            return entry
-
-        def lookup(load, t_fiber):
-            if not math.isfinite(t_fiber):
-                raise ArithmeticError(f'voltage supply: temperature {t_fiber!r} degC')
-            g0, dg, y, k = table(load, t_fiber)
-            u = max((t_fiber - g0) / dg, 0.0)
-            i = min(int(u), y.size - 2)
-            w = u - i
-            return y[i] + w * (y[i + 1] - y[i]), k[i] + w * (k[i + 1] - k[i])
-
-        def advance(k, inverse_r):
-            heating = nominal[k] * e.resistance * inverse_r
-            if substeps is None:
-                target = self.ambient + heating / conductance
-                temp[k + 1] = target + (temp[k] - target) * decay[k]
-            else:
-                m = int(substeps[k])
-                temp[k + 1] = qe.rk4_thermal_march(float(temp[k]), (float(heating),) * m,
-                                                   (intervals[k] / m,) * m, balance)[-1]
-            fiber[k + 1] = (temp[k + 1] if lag_decay is None else
-                            temp[k + 1] + (fiber[k] - temp[k + 1]) * lag_decay[k])
-            if actuation is not fiber:
-                actuation[k + 1] = fx.play_operator(fiber[k + 1], actuation[k], width)
-            y_eq[k + 1], stiffness[k + 1] = lookup(float(acting[k + 1]), actuation[k + 1])
-            if position is not y_eq:  # friction: the end stays in its band (no lag here)
-                band = [lookup(float(acting[k + 1]) + offset, actuation[k + 1])[0]
-                        for offset in self._friction_offsets()]
-                position[k + 1] = fx.friction_play(position[k], band[:2], band[2:])
-
-        def inverse_resistance(i):
-            r = resistance(temp[i], y_ref - position[i] - creep[i], length, e, t0)
-            if not r > 0.0:
-                raise ArithmeticError(f'voltage supply: resistance {r:g} ohm is not positive')
-            return 1.0 / r
-
-        y_eq[0], stiffness[0] = lookup(float(acting[0]), fiber[0])
-        position[0] = y_eq[0]
-        for k in range(n - 1):
-            # Heun: the power of each interval is the mean of 1/R at its two ends
-            first = inverse_resistance(k)
-            advance(k, first)
-            advance(k, 0.5 * (first + inverse_resistance(k + 1)))
-        return temp, fiber
 
 
 def simulate_quasistatic(params, time, power, load=None, model=None, kinetostatics=None,
