@@ -7,14 +7,15 @@ import numpy as np
 import pytest
 
 from tca_ros.cli import main
+from tca_ros.model.coil_geometry import coil_count, contact_pitch_angle
 from tca_ros.model.kinetostatic_models import make_kinetostatic_model
 from tca_ros.model.kinetostatics import natural_length
-from tca_ros.model.muscle import (coil_count, contact_pitch_angle, describe_muscle,
-                                  loaded_length_at_ambient, MuscleError, MuscleSpec,
-                                  thread_presets_path)
+from tca_ros.model.muscle import describe_muscle, loaded_length_at_ambient, MuscleError, \
+    MuscleSpec
 from tca_ros.model.params import load_params, shipped_configs, to_flat_dict
 from tca_ros.model.thermal import (heat_capacity, thermal_conductance,
                                    thermal_time_constant)
+from tca_ros.model.thread_presets import thread_presets_path
 from tca_ros.rod.reference import conical_spiral_reference
 
 ALPHA_DEG = 22.42  # free-stroke alpha* (Table III)

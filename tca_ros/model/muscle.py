@@ -8,6 +8,9 @@ the coil radius r*, the fiber length l_t, the coil count, the contact angle, the
 inserted twist, and the thermal and electrical constants. docs/describe.md gives the
 derivations and the decisions behind them.
 
+The thread presets are read by thread_presets.py, the geometric relations are in
+coil_geometry.py.
+
 Conventions
 -----------
 - r* is the mean (centreline) coil radius of [1, Table III]. On a mandrel the thread
@@ -24,22 +27,23 @@ References
 [1] J. Sun and J. Zhao, "Physics-based modeling of twisted-and-coiled actuators using
     Cosserat rod theory," IEEE Trans. Robot., 2022.
 """
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 import math
-import os
 import re
 
-import numpy as np
 from scipy.optimize import brentq
-import yaml
 
+from tca_ros.model.coil_geometry import coil_count, conical_coil_count, \
+    conical_fiber_length, conical_height_of_coil_count, contact_pitch_angle, \
+    equivalent_helix, fiber_length_of_natural_length, inserted_twist_of_diameter, \
+    mandrel_coil_radius, outer_coil_radius, pitch_angle_of_coil_count
 from tca_ros.model.kinetostatic_models import make_kinetostatic_model
 from tca_ros.model.kinetostatics import loaded_length
-from tca_ros.model.params import (config_dir, flatten, from_flat_dict, GRAVITY, MODELS,
-                                  ParameterError, SCHEMA, SPECS)
+from tca_ros.model.params import from_flat_dict, GRAVITY, MODELS, ParameterError, SCHEMA, \
+    SPECS
 from tca_ros.model.thermal import (fiber_mass, heat_capacity, surface_area,
                                    thermal_conductance, thermal_time_constant)
-from tca_ros.rod.reference import spiral_arc_length, spiral_coefficients
+from tca_ros.model.thread_presets import load_thread_presets, ThreadPreset
 
 COIL_TYPES = ('self_coiled', 'mandrel', 'conical')
 #: tca_type written for each way of coiling (a mandrel-coiled helix is the paper's
@@ -58,14 +62,6 @@ LENGTH_TOLERANCE = 1e-10
 LENGTH_MAX_ITERATIONS = 30
 #: Largest pitch angle accepted (deg): the schema's upper bound of coil.pitch_angle_deg.
 MAX_PITCH_ANGLE_DEG = SPECS['coil.pitch_angle_deg'].high
-#: Schema names a thread preset may set: the material, not the muscle.
-MATERIAL_PARAMETERS = frozenset((
-    'fiber.bias_angle_deg', 'fiber.volume_fraction', 'fiber.density',
-    'fiber.specific_heat', 'fiber.gamma_coefficients', 'thermal.convection_coefficient',
-    'thermal.surface_factor', 'moduli.youngs_modulus', 'moduli.shear_modulus',
-    'moduli.fiber_modulus', 'moduli.fiber_softening', 'moduli.load_coefficients',
-    'moduli.max_torsion_strain', 'moduli.fiber_modulus_floor',
-    'electrical.temperature_coefficient', 'electrical.strain_coefficient'))
 
 
 class MuscleError(ParameterError):
@@ -98,136 +94,6 @@ class MuscleError(ParameterError):
 
 
 _FIELD_TOKEN = re.compile(r'<([a-z_]+)>')
-
-
-# -- thread presets -------------------------------------------------------------------
-@dataclass(frozen=True)
-class ThreadPreset:
-    """Material of a thread preset (config/threads/threads.yaml).
-
-    ``params`` maps schema names (``fiber.density``) to values in schema units;
-    ``resistance_per_length`` is in ohm/m (None if not conductive) and
-    ``twist_diameter_product`` theta* d in rad.
-    """
-
-    name: str
-    description: str
-    conductive: bool
-    resistance_per_length: object
-    twist_diameter_product: float
-    params: dict = field(default_factory=dict)
-
-
-def thread_presets_path():
-    """Return the path of the thread presets file (config/threads/threads.yaml)."""
-    return os.path.join(config_dir(), 'threads', 'threads.yaml')
-
-
-def load_thread_presets(path=None):
-    """Return ``{name: ThreadPreset}`` read from the presets file (YAML).
-
-    Raises ParameterError (one line) if the file is unreadable or an entry sets a
-    name that is not a material parameter of the schema.
-    """
-    path = path or thread_presets_path()
-    try:
-        with open(path, encoding='utf-8') as fh:
-            document = yaml.safe_load(fh)
-    except OSError as exc:
-        raise ParameterError(f'{path}: cannot read thread presets ({exc.strerror})') from None
-    except yaml.YAMLError as exc:
-        raise ParameterError(f'{path}: invalid YAML ({str(exc).splitlines()[0]})') from None
-    if not isinstance(document, dict):
-        raise ParameterError(f'{path}: thread presets must be a mapping of names')
-    presets = {}
-    for name, entry in document.items():
-        values = flatten((entry or {}).get('params') or {})
-        bad = sorted(set(values) - MATERIAL_PARAMETERS)
-        if bad:
-            raise ParameterError(f"{path}: preset '{name}': '{bad[0]}' is not a material "
-                                 'parameter of the schema')
-        presets[name] = ThreadPreset(
-            name=str(name), description=' '.join(str(entry.get('description', '')).split()),
-            conductive=bool(entry.get('conductive', False)),
-            resistance_per_length=entry.get('resistance_per_length'),
-            twist_diameter_product=float(entry['twist_diameter_product']), params=values)
-    return presets
-
-
-# -- geometric relations -------------------------------------------------------------
-def mandrel_coil_radius(mandrel_diameter, thread_diameter):
-    """Return r* = (D_m + d) / 2 (m): the thread's centreline on a mandrel core.
-
-    The twisted thread (diameter d, m) lies against the mandrel core (diameter D_m,
-    m), so its centreline is one thread radius outside the core.
-    """
-    return 0.5 * (mandrel_diameter + thread_diameter)
-
-
-def outer_coil_radius(outer_diameter, thread_diameter):
-    """Return r* = (D_o - d) / 2 (m) from the coil's outer (caliper) diameter D_o (m)."""
-    return 0.5 * (outer_diameter - thread_diameter)
-
-
-def contact_pitch_angle(coil_radius, thread_radius):
-    """Return alpha_min (rad), the pitch angle at which neighbouring coils touch.
-
-        sin(alpha_min) = r_t / (pi r*)
-
-    On the developed coil cylinder the turns are parallel lines at angle alpha,
-    2 pi r* tan(alpha) apart axially, hence 2 pi r* sin(alpha) apart normal to the
-    thread; they touch when that gap equals the thread diameter 2 r_t. Radii in m.
-    """
-    return math.asin(min(thread_radius / (math.pi * coil_radius), 1.0))
-
-
-def fiber_length_of_natural_length(natural_length, pitch_angle):
-    """Return l_t = l* / sin(alpha*) (m), Eq. (26); l* in m, alpha* in rad."""
-    return natural_length / math.sin(pitch_angle)
-
-
-def coil_count(fiber_length, coil_radius, pitch_angle):
-    """Return N = l_t cos(alpha*) / (2 pi r*) (-), Eq. (24); lengths in m, angle in rad."""
-    return fiber_length * math.cos(pitch_angle) / (2.0 * math.pi * coil_radius)
-
-
-def pitch_angle_of_coil_count(natural_length, coil_radius, coils):
-    """Return alpha* = atan(l* / (2 pi r* N)) (rad) of N coils over l* (m), Eqs. (24), (26)."""
-    return math.atan2(natural_length, 2.0 * math.pi * coil_radius * coils)
-
-
-def inserted_twist_of_diameter(twist_diameter_product, thread_diameter):
-    """Return theta* = (theta* d) / d (rad/m) for a twisted-thread diameter d (m)."""
-    return twist_diameter_product / thread_diameter
-
-
-def conical_height_of_coil_count(spiral_pitch, coils):
-    """Return the height z = N p_c (m) of N turns of a conical spiral, Eq. (36)."""
-    return coils * spiral_pitch
-
-
-def conical_fiber_length(spiral_pitch, cone_angle, height):
-    """Return l_t = s(z) (m), the arc length of a conical spiral of height z (m), Eq. (37).
-
-    ``spiral_pitch`` p_c in m, ``cone_angle`` (full angle) in rad.
-    """
-    a, b = spiral_coefficients(spiral_pitch, cone_angle)
-    return float(spiral_arc_length(np.array([height]), a, b)[0])
-
-
-def conical_coil_count(spiral_pitch, height):
-    """Return the turns N = z / p_c (-) of a conical spiral of height z (m), Eq. (36)."""
-    return height / spiral_pitch
-
-
-def equivalent_helix(fiber_length, height, coils):
-    """Return (r (m), alpha (rad)): the uniform helix of equal l_t, height and turns.
-
-    sin(alpha) = z / l_t (Eq. (26)) and r = l_t cos(alpha) / (2 pi N) (Eq. (24)); written
-    for a conical TCA so that l* and N read from its params file are right.
-    """
-    alpha = math.asin(height / fiber_length)
-    return fiber_length * math.cos(alpha) / (2.0 * math.pi * coils), alpha
 
 
 # -- the maker's description --------------------------------------------------------
