@@ -20,9 +20,7 @@ Each out-of-catalogue case is diagnosed beside its defect-free twin (the same
 muscle, profile and noise): only where the twin is adequate can the verdict be
 the defect's. The same muscles are diagnosed again with two loads (15 and 40 g)
 together: a static sensor nonlinearity that one load hides in the calibration
-shows there (docs/diagnosis.md section 18); so are the muscles of the
-single-effect cases whose effect one load hides (modulus softening), each
-beside its twin too.
+shows there (docs/diagnosis.md section 18).
 With ``--real DIR`` the shared real records are diagnosed together too.
 
     python bench/bench_diagnosis_real.py [--null 12] [--per-effect 3] [--pairs 8]
@@ -45,7 +43,6 @@ import time
 import numpy as np
 
 from tca_ros.diagnosis import diagnose
-from tca_ros.diagnosis.joint import LOAD_SHAPED
 from tca_ros.diagnosis.realistic import conditions, OUTSIDE, RATES, realistic_case, truth_path
 from tca_ros.model.effects import CATALOGUE
 from tca_ros.model.params import dump_params
@@ -103,7 +100,7 @@ def run_case(args):
            'helpful': helpful, 'verdict': verdict, 'seconds': seconds,
            'truth_structured': truth_structured(paths[0], truth_path(case_dir, seed)),
            **conditions(seed)}
-    if group_of(hidden) == 'out-of-catalogue' or masses:
+    if group_of(hidden) == 'out-of-catalogue':
         twin_dir = os.path.join(case_dir, 'twin')
         os.makedirs(twin_dir, exist_ok=True)
         twin_found, _, row['twin_verdict'] = _diagnosis(*_records(seed, [], twin_dir, masses))
@@ -141,8 +138,7 @@ def group_of(hidden):
     return 'pair' if len(hidden) > 1 else 'single'
 
 
-GROUPS = ('null', 'single', 'single, 2 loads', 'pair', 'out-of-catalogue',
-          'out-of-catalogue, 2 loads')
+GROUPS = ('null', 'single', 'pair', 'out-of-catalogue', 'out-of-catalogue, 2 loads')
 
 
 def row_group(row):
@@ -152,19 +148,18 @@ def row_group(row):
 
 
 def print_outside(group, rows):
-    """Print a group with twins: what is named, and where the defect decides.
+    """Print an out-of-catalogue group: what is named, and where the defect decides.
 
     The defect-free twin (the same muscle, profile and noise) says whether the
     record is unexplained without the defect too (an unlogged power variation,
-    a low rate): only where the twin is adequate can the verdict be the defect's
-    (right: unexplained with nothing named outside the catalogue, the effect
-    named inside it).
+    a low rate): only where the twin is adequate can the verdict be the defect's.
     """
     verdicts = collections.Counter(r['verdict'] for r in rows)
     decided = [r for r in rows if r['twin_verdict'] == 'adequate' and not r['twin_found']]
     print(f'{group:<28s} named on {sum(1 for r in rows if r["found"])}/{len(rows)}; '
           f'verdicts {dict(verdicts)}; defect-free twin adequate on {len(decided)}/'
-          f'{len(rows)}, and there right on {sum(right(r) for r in decided)}/{len(decided)}')
+          f'{len(rows)}, and there unexplained on '
+          f'{sum(1 for r in decided if r["verdict"] == UNEXPLAINED)}/{len(decided)}')
     for r in rows:
         print(f'    {r["seed"]} {r["hidden"][0]:<20s} {r["verdict"]:<12s} '
               f'named {"+".join(r["found"]) or "-":<12s} twin {r["twin_verdict"]:<12s} '
@@ -200,12 +195,9 @@ def cases(n_null, per_effect, n_pairs, n_outside, seed0):
         out.append((seed, [OUTSIDE[k % len(OUTSIDE)]]))
         seed += 1
     out = [(seed, hidden, ()) for seed, hidden in out]
-    # the same out-of-catalogue muscles, and those with an effect one load hides in the
-    # calibration (joint.LOAD_SHAPED), with two loads diagnosed together (docs section 18)
-    shaped = [(seed, hidden, TWO_LOADS) for seed, hidden, _ in out
-              if len(hidden) == 1 and hidden[0] in LOAD_SHAPED]
-    return out + shaped + [(seed, hidden, TWO_LOADS)
-                           for seed, hidden, _ in out[len(out) - n_outside:]]
+    # the same out-of-catalogue muscles with two loads diagnosed together: a defect
+    # that one load hides in the calibration shows there (docs section 18)
+    return out + [(seed, hidden, TWO_LOADS) for seed, hidden, _ in out[len(out) - n_outside:]]
 
 
 def main(argv=None):
@@ -270,7 +262,7 @@ def print_table(rows, wall, jobs):
             print(f'{group:<18s} the truth itself structured on {len(sub) - len(clean)}/'
                   f'{len(sub)}; right where it is not: {sum(right(r) for r in clean)}/'
                   f'{len(clean)}')
-    for group in [g for g in groups if g.startswith('out-of-catalogue') or 'loads' in g]:
+    for group in [g for g in groups if g.startswith('out-of-catalogue')]:
         print_outside(group, [r for r in rows if row_group(r) == group])
     for name in ('plant', 'drift', 'nominal_power', 'noisy_power', 'jitter', 'not_at_rest',
                  'temperature', 'truth_structured'):
