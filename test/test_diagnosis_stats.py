@@ -186,13 +186,6 @@ def test_the_joint_calibration_takes_the_first_rounds_best_and_the_lag_siblings(
     assert [c.name for c in joint_order([SearchRound([], 1.0, {}, without_lag)],
                                         candidates)] == ['creep', 'hysteresis', 'radiation']
     assert joint_order([], candidates) == []
-    # across two loads modulus softening follows wherever it ranked (section 18)
-    low = [SimpleNamespace(name=n) for n in ['creep', 'hysteresis', 'radiation', 'dead_time',
-                                             'modulus_softening']]
-    assert 'modulus_softening' not in [
-        c.name for c in joint_order([SearchRound([], 1.0, {}, low)], candidates)]
-    assert [c.name for c in joint_order([SearchRound([], 1.0, {}, low)], candidates,
-                                        several_loads=True)][-1] == 'modulus_softening'
 
 
 def test_pairs_start_from_single_joint_fits_that_help_and_take_partners_outside_their_family():

@@ -245,7 +245,7 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
                                            False, validation, fit=fit, max_nfev=JOINT_NFEV,
                                            start_values=start_values, like=like)
         joint, rivals = joint_extension(calibrate_with, problems, nominals, cal, candidates,
-                                        rounds, nominal_rmse, not holds_one_load(records))
+                                        rounds, nominal_rmse)
         if joint is not None:
             notes.extend(joint_notes(joint, rivals, effects))
             effects, values, extendeds = list(joint.effects), joint.values, joint.sims

@@ -38,10 +38,6 @@ JOINT_NFEV = 10  # least-squares iterations of each pass of a joint calibration
 #: of stroke under a constant load) and the heat-loss shapes (each bends the steady rise)
 FAMILIES = (LAG_EFFECTS, ('hysteresis', 'friction'),
             ('ambient_offset', 'nonlinear_convection', 'radiation'))
-#: effects that reshape the static stroke-temperature relation through the load path:
-#: screened against a nominal whose gain and stiffness took them up, they rank low in
-#: the search, yet across two loads a joint calibration tells them apart (section 18)
-LOAD_SHAPED = ('modulus_softening',)
 
 
 @dataclass
@@ -94,7 +90,7 @@ def changed_values(params, reference):
             if isinstance(v, float) and k in old and v != old[k]}
 
 
-def joint_order(rounds, candidates, top=JOINT_TOP, several_loads=False):
+def joint_order(rounds, candidates, top=JOINT_TOP):
     """Return the candidates to calibrate jointly: the first round's best ``top``.
 
     By the first round's held-out score (each candidate refitted with the
@@ -105,9 +101,7 @@ def joint_order(rounds, candidates, top=JOINT_TOP, several_loads=False):
     that took it up are free again (seed 9039: the second lag ranked fifth behind
     dead time and sensor lag), and hysteresis and friction, or an ambient offset
     and nonlinear convection, each explained a record that held the other when it
-    was not tried (own generator 1006, bench_diagnosis_real 9032). With
-    ``several_loads`` (the records hold two or more loads) the LOAD_SHAPED
-    effects follow too, wherever they ranked.
+    was not tried (own generator 1006, bench_diagnosis_real 9032).
     """
     first = next((r for r in rounds if r is not None), None)
     if first is None:
@@ -119,8 +113,6 @@ def joint_order(rounds, candidates, top=JOINT_TOP, several_loads=False):
     for family in FAMILIES:
         if any(c.name in family for c in order):
             order += [c for c in ranked[top:] if c.name in family and c not in order]
-    if several_loads:
-        order += [c for c in ranked if c.name in LOAD_SHAPED and c not in order]
     return order
 
 
@@ -223,18 +215,16 @@ def best_joint(fits, problems, nominals, nominal_rmse):
     return (ok[0], ok[1:]) if ok else (None, [])
 
 
-def joint_extension(calibrate_with, problems, nominals, cal, candidates, rounds, nominal_rmse,
-                    several_loads=False):
+def joint_extension(calibrate_with, problems, nominals, cal, candidates, rounds, nominal_rmse):
     """Return (the JointFit taken or None, its rivals): singles first, then pairs.
 
     The search's first-round candidates (joint_order) are calibrated jointly one
     at a time; when none is taken, the pairs of pair_order; best_joint decides
     each time. Arguments as joint_calibrations and best_joint; ``rounds`` are the
-    search's SearchRounds; ``several_loads`` as joint_order.
+    search's SearchRounds.
     """
     fits = joint_calibrations(calibrate_with, problems, nominals, cal, candidates,
-                              [(c,) for c in joint_order(rounds, candidates,
-                                                         several_loads=several_loads)])
+                              [(c,) for c in joint_order(rounds, candidates)])
     joint, rivals = best_joint(fits, problems, nominals, nominal_rmse)
     if joint is None:  # one effect helps but leaves structure: it and a partner
         fits = joint_calibrations(calibrate_with, problems, nominals, cal, candidates,
