@@ -43,15 +43,15 @@ def _run_for(probe, seconds, node):
     probe.spin_for(0.2)  # the other topics of the last ticks
 
 
-def _wait_heating(probe, node):
-    """Spin until the published temperature rises: the power command has landed.
+def _wait_heating(probe, node, topic='temperature', above=25.5):
+    """Spin until the temperature on ``topic`` exceeds ``above`` (degC): the command landed.
 
     The node runs as fast as it can, so on a loaded machine a command lands some sim
     seconds after it was sent; the heating is timed from when it does.
     """
     def hot():
-        rows = probe.records['temperature']
-        return rows and rows[-1][1].temperature > 25.5
+        rows = probe.records[topic]
+        return rows and rows[-1][1].temperature > above
     assert probe.spin_until(hot, 60.0), node.log()
 
 
@@ -123,8 +123,9 @@ def test_antagonistic_node_turns_its_joint_both_ways(tmp_path, probe):
         probe.publish('power_cmd', Float64(data=0.0))
         probe.publish('antagonist/power_cmd', Float64(data=1.0))
         # the node runs as fast as it can: how much sim time passes before the commands
-        # land depends on the machine's load, so wait (up to 30 s of sim time) for the
-        # crossing rather than a fixed span
+        # land depends on the machine's load (tens of sim seconds were seen), so the 30 s
+        # for the crossing are timed from when the antagonist starts to heat
+        _wait_heating(probe, node, 'antagonist/temperature', heated_2.temperature + 1.0)
         end = _now(probe) + 30.0
         probe.spin_until(lambda: _now(probe) >= end
                          or probe.records['joint_states'][-1][1].position[0] < -0.2, 60.0)
