@@ -422,6 +422,23 @@ def solve_rod_statics(reference, stiffness, end_force=(0.0, 0.0, 0.0),
         ``success`` is False (never an exception) if Newton did not converge.
     """
     K = np.asarray(stiffness, dtype=float)
+    n_steps = default_steps(reference) if n_steps is None else n_steps
+    _check_arguments(K, stiffness, end_force, end_moment, end_load_offset, end_height, n_steps)
+    prob = _Problem(reference, K, end_force, end_moment, int(n_steps), distributed_wrench,
+                    end_load_offset, end_height)
+    guess = helix_initial_state(reference, K, end_force, end_moment, prob.s)
+    X = _start_state(prob, guess, initial, n_steps)
+    X, norm, success, message, n_iter = _damped_newton(prob, X, tol, max_iter)
+    x = X.reshape(n_steps + 1, 13).T
+    return RodSolution(s=prob.s, positions=x[_P].copy(), quaternions=x[_H].copy(),
+                       frames=rotation_from_quaternion(x[_H]), m=x[_M].copy(),
+                       n=x[_N].copy(), success=success, message=message, n_iter=n_iter,
+                       residual=float(norm), helix_state=guess)
+
+
+def _check_arguments(K, stiffness, end_force, end_moment, end_load_offset, end_height,
+                     n_steps):
+    """Raise ValueError (one line: name, value, what is allowed) for a bad argument."""
     if K.shape != (6,) or not np.all(K > 0.0):
         raise ValueError(f'stiffness = {stiffness!r}: must be 6 positive values')
     for name, val in (('end_force', end_force), ('end_moment', end_moment)):
@@ -437,23 +454,35 @@ def solve_rod_statics(reference, stiffness, end_force=(0.0, 0.0, 0.0),
                              'or "origin"')
     elif np.shape(end_load_offset) != (3,) or not np.all(np.isfinite(end_load_offset)):
         raise ValueError(f'end_load_offset = {end_load_offset!r}: must be 3 finite values')
-    if n_steps is None:
-        n_steps = default_steps(reference)
     if int(n_steps) < 2:
         raise ValueError(f'n_steps = {n_steps!r}: must be >= 2')
-    prob = _Problem(reference, K, end_force, end_moment, int(n_steps), distributed_wrench,
-                    end_load_offset, end_height)
-    X = None
-    guess = helix_initial_state(reference, K, end_force, end_moment, prob.s)
+
+
+def _start_state(prob, guess, initial, n_steps):
+    """Return Newton's first state vector (flat, 13 per node).
+
+    A RodSolution on the same mesh is a warm start, moved by the change of the
+    exact helix ``guess`` (the far field) while its clamp boundary layer is kept;
+    a (n_steps + 1, 13) array is taken as it is; else the helix, or the
+    problem's own guess where no helix fits.
+    """
     if isinstance(initial, RodSolution) and initial.s.size == n_steps + 1:
         X = initial.state().ravel().copy()
         if guess is not None and initial.helix_state is not None:
             # Predictor: keep the clamp boundary layer, move the far field exactly.
             X += (guess - initial.helix_state).ravel()
-    elif initial is not None and np.shape(initial) == (n_steps + 1, N_STATE):
-        X = np.asarray(initial, dtype=float).ravel().copy()
-    if X is None:
-        X = prob.initial_guess() if guess is None else guess.ravel()
+        return X
+    if initial is not None and np.shape(initial) == (n_steps + 1, N_STATE):
+        return np.asarray(initial, dtype=float).ravel().copy()
+    return prob.initial_guess() if guess is None else guess.ravel()
+
+
+def _damped_newton(prob, X, tol, max_iter):
+    """Return (state, scaled residual, success, message, iterations) of damped Newton.
+
+    Converged when the scaled residual is at ``tol`` after a step small enough
+    to be in Newton's basin (NEWTON_BASIN_STEP); never raises on failure.
+    """
     res, J = prob.residual(X, want_jacobian=True)
     norm = prob.scaled_norm(res)
     message = 'maximum iterations reached'
@@ -497,11 +526,7 @@ def solve_rod_statics(reference, stiffness, end_force=(0.0, 0.0, 0.0),
             message = 'converged'
             break
         res, J = prob.residual(X, want_jacobian=True)
-    x = X.reshape(n_steps + 1, 13).T
-    return RodSolution(s=prob.s, positions=x[_P].copy(), quaternions=x[_H].copy(),
-                       frames=rotation_from_quaternion(x[_H]), m=x[_M].copy(),
-                       n=x[_N].copy(), success=success, message=message, n_iter=n_iter,
-                       residual=float(norm), helix_state=guess)
+    return X, norm, success, message, n_iter
 
 
 def solve_continuation(problem, parameters, n_steps=None, initial=None, max_halvings=6,
