@@ -28,182 +28,34 @@ The time constant and steady rise are fitted instead of h and c_p because a
 record without temperature determines the time constant by itself while the
 rise is only known in product with the actuation gain and the delivered power.
 
+The parameters' priors, bounds and apply_calibration are in calibration_parameters.py.
 The search simulates with the quasi-static reduction (model/quasistatic.py) and
 the config's kinetostatic model; the calibrated parameters are then checked with
 the full central-difference dynamics (18) of the same model, and those are the
 figures reported.
 """
 from dataclasses import dataclass, field
-import math
 
 import numpy as np
 
 from tca_ros.diagnosis import engine
+from tca_ros.diagnosis.calibration_parameters import apply_calibration, calibration_priors, \
+    coil_stiffness, damping_bound, DEFAULT_FIT, EFFECT_PARAMETERS, effect_priors, \
+    MAX_DAMPING_RATIO, OPTIONAL_FIT  # noqa: F401 (coil_stiffness, MAX_DAMPING_RATIO: API)
 from tca_ros.diagnosis.progress import Progress
-from tca_ros.model.effects import CATALOGUE
-from tca_ros.model.end_motion import critical_damping
 from tca_ros.model.kinetostatics import static_elongation
 from tca_ros.model.quasistatic import QuasiStaticPlant
 from tca_ros.model.simulation import simulate
 from tca_ros.model.static_maps import make_statics
-from tca_ros.model.thermal import heat_capacity, surface_area, thermal_conductance
 
-DEFAULT_FIT = ('thermal_time_constant', 'steady_rise', 'actuation_gain', 'stiffness_scale',
-               'damping', 'delivered_power_ratio', 'resistance',
-               'resistance_temperature_coef', 'resistance_strain_coef')
 PEAK_PERCENTILE = 99.5  # % of a record's contraction taken as its peak (spike-robust)
-OPTIONAL_FIT = ('friction_force',)  # fitted when named in ``fit`` (a diagnosis effect else)
-#: catalogue effect parameters a calibration fits when named in ``fit`` (dotted names)
-EFFECT_PARAMETERS = tuple(n for names in CATALOGUE.values() for n in names
-                          if n.startswith('effects.'))
-EFFECT_PRIOR_SPREAD = 10.0  # effect priors' standard deviation, x the parameter's range
 DISPLACEMENT_SCALE_FLOOR = 1e-6  # m, residual scale floor (a good encoder's resolution)
 MIN_PHYSICS_RATE_HZ = 200.0  # Hz, full-dynamics check
 NOMINAL_LEVELS = 2  # a power column with at most this many distinct values is nominal
-#: calibrated damping at most this many times the critical damping of the hanging mass
-#: (or 10x the start's, for a muscle known to be heavily damped): beyond it the fit
-#: uses b_t / k as a lag of seconds, a thermal-like lag that is not viscous
-#: (docs/calibration.md, "Damping")
-MAX_DAMPING_RATIO = 10.0
 
 
 class CalibrationError(ValueError):
     """The records and the start config cannot be calibrated (one-line reason)."""
-
-
-def damping_bound(params, model=None):
-    """Return the largest damping b_t (N s/m) a calibration may fit.
-
-    MAX_DAMPING_RATIO times the critical damping of the hanging mass on the
-    coil's stiffness at ambient under the start's load, or ten times the
-    start's damping if that is larger; at least 1 N s/m.
-    """
-    crit = critical_damping(coil_stiffness(params, model), params.dynamics.mass)
-    return max(MAX_DAMPING_RATIO * crit, 10.0 * params.dynamics.damping, 1.0)
-
-
-def coil_stiffness(params, model=None):
-    """Return the coil's axial stiffness k (N/m) at ambient under ``params``' load.
-
-    A central difference of the static elongation; 0 where the statics fail.
-    """
-    statics = make_statics(params, model)
-    load, ambient = params.dynamics.load, params.thermal.ambient_temperature
-    step = max(1e-3 * abs(load), 1e-4)
-    try:
-        y0 = static_elongation(statics, max(load - step, 0.0), ambient)
-        y1 = static_elongation(statics, load + step, ambient)
-    except (ValueError, ArithmeticError):
-        return 0.0
-    return (load + step - max(load - step, 0.0)) / (y1 - y0) if y1 > y0 else 0.0
-
-
-def _priors(params, nominal_power, has_resistance, r0_measured=None, supply='power',
-            max_damping=1e3):
-    """Return {name: engine.Parameter} around the start ``params``.
-
-    The resistance law is fitted when the records carry resistance, and its
-    coefficients also when a constant-voltage supply makes the power follow it.
-    ``max_damping`` (N s/m): the damping's upper bound (:func:`damping_bound`).
-    """
-    conductance = thermal_conductance(params.fiber, params.thermal)
-    tau = heat_capacity(params.fiber) / conductance
-    e = params.electrical
-    out = [
-        engine.Parameter('thermal_time_constant', 's', tau, 0.1, 500.0, math.log(4.0),
-                         description='m_t c_p / (h c_s A_0), eq. (1)'),
-        engine.Parameter('steady_rise', 'K/W', 1.0 / conductance, 1.0, 3000.0,
-                         math.log(4.0), description='1 / (h c_s A_0), eq. (1)'),
-        engine.Parameter('actuation_gain', '-', params.fiber.untwist_gain, 0.02, 20.0,
-                         math.log(4.0), description='untwist gain on eq. (4)'),
-        engine.Parameter('stiffness_scale', '-', 1.0, 0.05, 20.0, math.log(2.0),
-                         description='E and G relative to the start config'),
-        engine.Parameter('damping', 'N s/m',
-                         min(max(params.dynamics.damping, 1e-3), max_damping), 1e-3,
-                         max_damping, math.log(10.0), description='b_t of eq. (18)'),
-    ]
-    if nominal_power:
-        out.append(engine.Parameter(
-            'delivered_power_ratio', '-', params.thermal.delivered_power_ratio, 0.2, 5.0,
-            math.log(1.25), description='power heating the thread / logged power'))
-    if has_resistance:
-        r0 = r0_measured or e.resistance
-        out.append(engine.Parameter('resistance', 'ohm', r0, r0 / 10.0, r0 * 10.0,
-                                    math.log(1.5),
-                                    description='R0 at ambient and loaded length'))
-    # optional (--fit ...,friction_force): Coulomb friction of the load path (a pulley)
-    out.append(engine.Parameter('friction_force', 'N',
-                                max(params.effects.friction_force, 1e-3), 1e-5, 1.0,
-                                math.log(10.0), description='effects.friction_force'))
-    if has_resistance or supply == 'voltage':
-        out += [
-            engine.Parameter('resistance_temperature_coef', '1/K', e.temperature_coefficient,
-                             -0.05, 0.05, 5e-3, log=False, description='beta_T'),
-            engine.Parameter('resistance_strain_coef', '-', e.strain_coefficient, -10.0,
-                             10.0, 1.0, log=False, description='beta_x'),
-        ]
-    return {p.name: p for p in out}
-
-
-def _effect_priors(names, params):
-    """Return {dotted name: engine.Parameter} of the catalogue effect parameters in ``names``.
-
-    Bounds and scale (linear or log) are the diagnosis's search space of each
-    (candidates.effect_space); the prior is centred on the start ``params``' value
-    (the middle screening start where that is the effect's neutral value, which a
-    fit started at a bound could not leave) and EFFECT_PRIOR_SPREAD times the range
-    wide: nearly flat, so the records decide.
-    """
-    from tca_ros.diagnosis.candidates import effect_space
-    out = {}
-    for name in names:
-        if name not in EFFECT_PARAMETERS:
-            continue
-        space, starts = effect_space(name)
-        section, field_name = name.split('.')
-        value = float(getattr(getattr(params, section), field_name))
-        if not space.low < value < space.high:
-            value = starts[len(starts) // 2]
-        spread = EFFECT_PRIOR_SPREAD * (math.log(space.high / space.low) if space.log
-                                        else space.high - space.low)
-        out[name] = engine.Parameter(name, space.unit, value, space.low, space.high, spread,
-                                     log=space.log, description=f'catalogue effect {name}')
-    return out
-
-
-def apply_calibration(params, values):
-    """Return ``params`` with calibration ``values`` ({name: value}) written in.
-
-    The names are those of the module docstring; absent ones keep ``params``.
-    """
-    flat = {}
-    fiber, thermal = params.fiber, params.thermal
-    tau = values.get('thermal_time_constant')
-    rise = values.get('steady_rise')
-    if tau is not None or rise is not None:
-        conductance = thermal_conductance(fiber, thermal)
-        rise = rise if rise is not None else 1.0 / conductance
-        tau = tau if tau is not None else heat_capacity(fiber) / conductance
-        conductance = 1.0 / rise
-        area = thermal.surface_factor * surface_area(fiber)
-        fiber_mass = heat_capacity(fiber) / fiber.specific_heat
-        flat['thermal.convection_coefficient'] = conductance / area
-        flat['fiber.specific_heat'] = tau * conductance / fiber_mass
-    simple = {'actuation_gain': 'fiber.untwist_gain', 'damping': 'dynamics.damping',
-              'friction_force': 'effects.friction_force',
-              'delivered_power_ratio': 'thermal.delivered_power_ratio',
-              'resistance': 'electrical.resistance',
-              'resistance_temperature_coef': 'electrical.temperature_coefficient',
-              'resistance_strain_coef': 'electrical.strain_coefficient'}
-    for name, dotted in simple.items():
-        if name in values:
-            flat[dotted] = values[name]
-    flat.update({k: v for k, v in values.items() if k in EFFECT_PARAMETERS})
-    if 'stiffness_scale' in values:
-        s = values['stiffness_scale']
-        flat['moduli.youngs_modulus'] = params.moduli.youngs_modulus * s
-        flat['moduli.shear_modulus'] = params.moduli.shear_modulus * s
-    return params.with_values(**flat) if flat else params
 
 
 def is_nominal_power(records):
@@ -388,8 +240,8 @@ def calibrate(records, params, model=None, fit=None, progress=False, max_nfev=40
     nominal = is_nominal_power(records)
     start, notes = prepare_start(params, records, model)
     r0 = start.electrical.resistance
-    priors = _priors(start, nominal, 'resistance' in channels, r0, supply,
-                     damping_bound(start, model))
+    priors = calibration_priors(start, nominal, 'resistance' in channels, r0, supply,
+                                damping_bound(start, model))
     names = list(fit) if fit else list(DEFAULT_FIT)
     unknown = [n for n in names if n not in DEFAULT_FIT + OPTIONAL_FIT + EFFECT_PARAMETERS]
     if unknown:
@@ -400,7 +252,7 @@ def calibrate(records, params, model=None, fit=None, progress=False, max_nfev=40
     if 'friction_force' in names and 'effects.friction_force' in names:
         raise CalibrationError("--fit 'effects.friction_force': the same parameter as "
                                "'friction_force'; name it once")
-    priors.update(_effect_priors(names, start))
+    priors.update(effect_priors(names, start))
     parameters = [priors[n] for n in names if n in priors]
     if not nominal:
         notes.append('power varies beyond on/off: taken as measured, '
