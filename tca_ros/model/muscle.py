@@ -9,7 +9,7 @@ inserted twist, and the thermal and electrical constants. docs/describe.md gives
 derivations and the decisions behind them.
 
 The thread presets are read by thread_presets.py, the geometric relations are in
-coil_geometry.py.
+coil_geometry.py, the maker's description (MuscleSpec) and its checks in muscle_spec.py.
 
 Conventions
 -----------
@@ -29,7 +29,6 @@ References
 """
 from dataclasses import dataclass
 import math
-import re
 
 from scipy.optimize import brentq
 
@@ -39,13 +38,13 @@ from tca_ros.model.coil_geometry import coil_count, conical_coil_count, \
     mandrel_coil_radius, outer_coil_radius, pitch_angle_of_coil_count
 from tca_ros.model.kinetostatic_models import make_kinetostatic_model
 from tca_ros.model.kinetostatics import loaded_length
-from tca_ros.model.params import from_flat_dict, GRAVITY, MODELS, ParameterError, SCHEMA, \
-    SPECS
+from tca_ros.model.muscle_spec import check_exactly_one, check_positive, check_spec, \
+    COIL_TYPES, is_finite, MuscleError, MuscleSpec, SPEC_UNITS  # noqa: F401 (COIL_TYPES: API)
+from tca_ros.model.params import from_flat_dict, GRAVITY, ParameterError, SCHEMA, SPECS
 from tca_ros.model.thermal import (fiber_mass, heat_capacity, surface_area,
                                    thermal_conductance, thermal_time_constant)
 from tca_ros.model.thread_presets import load_thread_presets, ThreadPreset
 
-COIL_TYPES = ('self_coiled', 'mandrel', 'conical')
 #: tca_type written for each way of coiling (a mandrel-coiled helix is the paper's
 #: free-stroke TCA).
 TCA_TYPE_OF_COIL = {'self_coiled': 'self_coiled', 'mandrel': 'free_stroke',
@@ -64,68 +63,7 @@ LENGTH_MAX_ITERATIONS = 30
 MAX_PITCH_ANGLE_DEG = SPECS['coil.pitch_angle_deg'].high
 
 
-class MuscleError(ParameterError):
-    """A described muscle cannot exist or is incompletely described.
-
-    The message is one line, ``field = value unit: reason``; ``field`` names the
-    MuscleSpec field (the CLI maps it to its flag).
-    """
-
-    def __init__(self, field_name, value, reason, unit=''):
-        self.field = field_name
-        self.value = value
-        self.unit = unit
-        self.reason = reason
-        super().__init__(self._text(field_name))
-
-    def _text(self, name, names=None):
-        reason = self.reason
-        for key in _FIELD_TOKEN.findall(reason):
-            reason = reason.replace(f'<{key}>', (names or {}).get(key, key))
-        if self.value is None:
-            return f'{name}: {reason}'
-        shown = f'{self.value:g}' if isinstance(self.value, float) else str(self.value)
-        unit = f' {self.unit}' if self.unit and self.unit != '-' else ''
-        return f'{name} = {shown}{unit}: {reason}'
-
-    def renamed(self, names):
-        """Return the message with fields shown by ``names`` ({field: flag}) where given."""
-        return self._text(names.get(self.field, self.field), names)
-
-
-_FIELD_TOKEN = re.compile(r'<([a-z_]+)>')
-
-
 # -- the maker's description --------------------------------------------------------
-@dataclass(frozen=True)
-class MuscleSpec:
-    """What a maker knows of a TCA (SI units; angles in deg, ambient in degC).
-
-    Exactly one of ``pitch_angle_deg`` and ``coils``, and of ``loaded_length`` and
-    ``natural_length``. At most one of ``mandrel_diameter``, ``coil_diameter`` (mean,
-    2 r*) and ``outer_diameter``. None means not given.
-    """
-
-    thread: str
-    thread_diameter: float
-    coil: str
-    mandrel_diameter: float = None
-    coil_diameter: float = None
-    outer_diameter: float = None
-    pitch_angle_deg: float = None
-    coils: float = None
-    loaded_length: float = None
-    natural_length: float = None
-    resistance: float = None
-    mass: float = 0.0
-    ambient_degc: float = 25.0
-    model: str = 'rod'
-    min_pitch_angle_deg: float = None
-    inserted_twist: float = None
-    spiral_pitch: float = None
-    cone_angle_deg: float = None
-
-
 @dataclass(frozen=True)
 class Derived:
     """One derived quantity: value, unit and how it was obtained."""
@@ -154,7 +92,7 @@ def describe_muscle(spec, presets=None):
         not fully described.
     """
     presets = presets if presets is not None else load_thread_presets()
-    preset = _check_spec(spec, presets)
+    preset = check_spec(spec, presets)
     r_t = 0.5 * spec.thread_diameter
     derived = {}
     flat = {s.name: s.default for s in SCHEMA}
@@ -178,62 +116,20 @@ def describe_muscle(spec, presets=None):
     return MuscleDescription(params=params, preset=preset, derived=derived)
 
 
-def _check_spec(spec, presets):
-    """Validate what does not depend on the derivation; return the thread preset."""
-    if spec.thread not in presets:
-        raise MuscleError('thread', spec.thread,
-                          f'unknown preset (known: {", ".join(sorted(presets))})')
-    if spec.coil is None:
-        raise MuscleError('coil', None, f'required: one of {", ".join(COIL_TYPES)}')
-    if spec.coil not in COIL_TYPES:
-        raise MuscleError('coil', spec.coil, f'must be one of {", ".join(COIL_TYPES)}')
-    if spec.model not in MODELS:
-        raise MuscleError('model', spec.model, f'must be one of {", ".join(MODELS)}')
-    _positive(spec, 'thread_diameter', 'm')
-    high = 2.0 * SPECS['fiber.radius'].high
-    if spec.thread_diameter > high:
-        raise MuscleError('thread_diameter', spec.thread_diameter,
-                          f'above {high:g} m, the largest twisted thread the model takes', 'm')
-    for name in ('mandrel_diameter', 'coil_diameter', 'outer_diameter', 'coils',
-                 'loaded_length', 'natural_length', 'resistance', 'inserted_twist',
-                 'spiral_pitch', 'pitch_angle_deg', 'cone_angle_deg'):
-        if getattr(spec, name) is not None:
-            _positive(spec, name, _UNITS[name])
-    if not (_finite(spec.mass) and spec.mass >= 0.0):
-        raise MuscleError('mass', spec.mass, 'must be a finite mass >= 0', 'kg')
-    low, high = (SPECS['thermal.ambient_temperature_degc'].low,
-                 SPECS['thermal.ambient_temperature_degc'].high)
-    if not (_finite(spec.ambient_degc) and low <= spec.ambient_degc <= high):
-        raise MuscleError('ambient_degc', spec.ambient_degc,
-                          f'must be in [{low:g}, {high:g}]', 'degC')
-    if spec.loaded_length is not None and spec.mass == 0.0:
-        raise MuscleError('mass', spec.mass, 'a <loaded_length> needs the hanging mass '
-                          '(> 0) it was measured under', 'kg')
-    if spec.min_pitch_angle_deg is not None and not (
-            _finite(spec.min_pitch_angle_deg) and 0.0 <= spec.min_pitch_angle_deg < 89.0):
-        raise MuscleError('min_pitch_angle_deg', spec.min_pitch_angle_deg,
-                          'must be in [0, 89)', 'deg')
-    preset = presets[spec.thread]
-    if spec.resistance is None and not preset.conductive:
-        raise MuscleError('resistance', None, f'required: {spec.thread} is not conductive '
-                          "(give the heater's resistance at ambient, ohm)")
-    return preset
-
-
 def _helix_geometry(spec, flat, derived, r_t):
     """Fill coil and fiber length of a helical (self- or mandrel-coiled) TCA."""
     for name in ('spiral_pitch', 'cone_angle_deg'):
         if getattr(spec, name) is not None:
             raise MuscleError(name, getattr(spec, name),
                               f'only for a conical coil (this one is {spec.coil})',
-                              _UNITS[name])
-    _exactly_one(spec, 'loaded_length', 'natural_length')
+                              SPEC_UNITS[name])
+    check_exactly_one(spec, 'loaded_length', 'natural_length')
     radius = _coil_radius(spec, r_t, derived)
     if radius <= r_t:
         raise MuscleError(_radius_field(spec), _radius_value(spec),
                           f'gives a coil radius r* = {radius:g} m, not above the thread '
                           f'radius {r_t:g} m (the coil would have no bore)', 'm')
-    _exactly_one(spec, 'pitch_angle_deg', 'coils')
+    check_exactly_one(spec, 'pitch_angle_deg', 'coils')
     contact = contact_pitch_angle(radius, r_t)
     alpha_min = contact if spec.min_pitch_angle_deg is None else math.radians(
         spec.min_pitch_angle_deg)
@@ -324,7 +220,7 @@ def _radius_value(spec):
 
 def _check_pitch(spec, name, value, alpha, alpha_min):
     """Refuse a pitch angle at or below contact, or beyond the schema's range."""
-    unit = _UNITS[name]
+    unit = SPEC_UNITS[name]
     if alpha <= alpha_min:
         source = ('the measured contact angle' if spec.min_pitch_angle_deg is not None
                   else 'the contact angle asin(r_t / (pi r*))')
@@ -417,8 +313,8 @@ def _conical_geometry(spec, flat, derived):
         if getattr(spec, name) is not None:
             raise MuscleError(name, getattr(spec, name), 'not for a conical coil (give '
                               '<spiral_pitch>, <cone_angle_deg> and <coils> or '
-                              '<natural_length>)', _UNITS[name])
-    _exactly_one(spec, 'coils', 'natural_length')
+                              '<natural_length>)', SPEC_UNITS[name])
+    check_exactly_one(spec, 'coils', 'natural_length')
     pitch = PAPER_SPIRAL_PITCH if spec.spiral_pitch is None else spec.spiral_pitch
     cone_deg = PAPER_CONE_ANGLE_DEG if spec.cone_angle_deg is None else spec.cone_angle_deg
     if not cone_deg < 170.0:
@@ -489,32 +385,3 @@ def loaded_length_at_ambient(params, model=None):
     """Return the static length (m) at ambient under the params' load (N)."""
     km = make_kinetostatic_model(params, model)
     return loaded_length(km, params.dynamics.load, params.thermal.ambient_temperature)
-
-
-def _positive(spec, name, unit):
-    value = getattr(spec, name)
-    if value is None:
-        raise MuscleError(name, None, 'required')
-    if not (_finite(value) and value > 0.0):
-        raise MuscleError(name, value, 'must be a finite value > 0', unit)
-
-
-def _finite(value):
-    return isinstance(value, (int, float)) and not isinstance(value, bool) \
-        and math.isfinite(value)
-
-
-def _exactly_one(spec, first, second):
-    a, b = getattr(spec, first), getattr(spec, second)
-    if a is None and b is None:
-        raise MuscleError(first, None, f'give exactly one of <{first}> and <{second}>')
-    if a is not None and b is not None:
-        raise MuscleError(second, b, f'give exactly one of <{first}> and <{second}> '
-                          f'(also got <{first}> = {a:g})', _UNITS[second])
-
-
-_UNITS = {'thread_diameter': 'm', 'mandrel_diameter': 'm', 'coil_diameter': 'm',
-          'outer_diameter': 'm', 'pitch_angle_deg': 'deg', 'coils': '-',
-          'loaded_length': 'm', 'natural_length': 'm', 'resistance': 'ohm',
-          'mass': 'kg', 'ambient_degc': 'degC', 'min_pitch_angle_deg': 'deg',
-          'inserted_twist': 'rad/m', 'spiral_pitch': 'm', 'cone_angle_deg': 'deg'}
