@@ -20,8 +20,6 @@ from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.qos import QoSProfile
 from rosgraph_msgs.msg import Clock as ClockMsg
-from std_msgs.msg import Float64
-from std_srvs.srv import Trigger
 
 from tca_ros.model.params import ParameterError
 from tca_ros.model.resistance import power_from_voltage
@@ -29,6 +27,7 @@ from tca_ros.model.rigs import start_load
 from tca_ros.node_clock import ClockMixin, NS, time_msg, WARN_PERIOD
 from tca_ros.node_cmdline import check_ros_arguments, init_quietly, log_fatal
 from tca_ros.node_diagnostics import DiagnosticsPublisher
+from tca_ros.node_inputs import InputsMixin
 from tca_ros.node_outputs import non_finite, OutputsMixin
 from tca_ros.node_params import (  # noqa: F401  (re-exported: the node's parameter API)
     build_simulator, check_unknown_overrides,
@@ -42,17 +41,17 @@ from tca_ros.node_spin import spin_resiliently
 from tca_ros.node_task import TaskPlayer
 
 
-COMMAND_QOS = QoSProfile(depth=10)
 CLOCK_QOS = QoSProfile(depth=1)  # reliable writer; rclpy's clock reader is best effort
 
 MAX_TEMPERATURE_REARM = 1.0  # K below max_temperature before a new crossing is logged
 
 
-class TcaSimNode(ClockMixin, OutputsMixin, ParametersMixin, Node):
+class TcaSimNode(ClockMixin, InputsMixin, OutputsMixin, ParametersMixin, Node):
     """Step the TCA model at physics_rate and publish its state at publish_rate.
 
-    Here: start-up, the physics episode (commands, watchdog, limits, failure, reset) and
-    the inputs; the time in node_clock.ClockMixin, the outputs (and their publishers) in
+    Here: start-up and the physics episode (commands, watchdog, limits, failure, reset);
+    the time in node_clock.ClockMixin, the inputs (subscriptions, ~/reset) in
+    node_inputs.InputsMixin, the outputs (and their publishers) in
     node_outputs.OutputsMixin, the parameters (declared, then changed) in
     node_reconfigure.ParametersMixin.
     """
@@ -87,12 +86,7 @@ class TcaSimNode(ClockMixin, OutputsMixin, ParametersMixin, Node):
         self._stepping_paused_until = 0.0  # monotonic s: no catch-up before (overload)
 
         self._create_output_publishers()
-        self._power_sub = self.create_subscription(Float64, 'power_cmd', self._on_power_cmd,
-                                                   COMMAND_QOS)
-        self._voltage_sub = self.create_subscription(Float64, 'voltage_cmd',
-                                                     self._on_voltage_cmd, COMMAND_QOS)
-        self.create_subscription(Float64, 'load', self._on_load, COMMAND_QOS)
-        self.create_service(Trigger, '~/reset', self._on_reset)
+        self._create_inputs()
         self._rig = RigTopics(self, self._params.rig.mode, lambda: self._cfg,
                               self._command_time)
 
@@ -225,84 +219,6 @@ class TcaSimNode(ClockMixin, OutputsMixin, ParametersMixin, Node):
         self._overheated = False
         self._frozen = None
         self._power = 0.0
-
-    # -- inputs -----------------------------------------------------------------------
-    def _valid(self, topic, value):
-        if math.isfinite(value):
-            return True
-        self.get_logger().warning(f'{topic}: rejected non-finite value {value}; '
-                                  'keeping the last valid one',
-                                  throttle_duration_sec=WARN_PERIOD)
-        return False
-
-    def _command(self, kind, value):
-        if self._task.queued and self._awaiting_command:
-            self._awaiting_command = False  # the answer to the state before the task
-            self._task.start()
-            return
-        self._task.extra += self._task.active and self._started and not self._awaiting_command
-        self._last_command_ns = self._command_time()
-        self._drive = (kind, value)
-        if self._watchdog_tripped:
-            self._watchdog_tripped = False
-            self.get_logger().info('commands are back: watchdog cleared',
-                                   throttle_duration_sec=WARN_PERIOD)
-        if self._awaiting_command:
-            self._awaiting_command = False
-            self._run_ticks()
-
-    def _command_time(self):
-        """Return the node time (ns) of a command, the physics caught up to it."""
-        if not self._owns_time:
-            self._catch_up()  # the old command holds up to now (zero-order hold)
-        return self._now_ns()
-
-    def _on_power_cmd(self, msg):
-        if not self._valid('power_cmd', msg.data):
-            return
-        if msg.data < 0.0 or msg.data > self._cfg['max_power']:
-            self.get_logger().warning(
-                f'power_cmd {msg.data:g} W outside [0, {self._cfg["max_power"]:g}] W: clamped',
-                throttle_duration_sec=WARN_PERIOD)
-        self._command('power', msg.data)
-
-    def _on_voltage_cmd(self, msg):
-        if self._valid('voltage_cmd', msg.data):
-            self._command('voltage', msg.data)
-
-    def _on_load(self, msg):
-        if not self._valid('load', msg.data):
-            return
-        load = min(max(msg.data, 0.0), self._cfg['max_load'])
-        if load != msg.data:
-            self.get_logger().warning(
-                f'load {msg.data:g} N outside [0, {self._cfg["max_load"]:g}] N: clamped',
-                throttle_duration_sec=WARN_PERIOD)
-        if not self._owns_time:
-            self._catch_up()
-        self._load = load
-
-    def _on_reset(self, request, response):
-        try:
-            if not self._owns_time:
-                self._catch_up()
-            self._reset_sim()
-        except Exception as exc:  # noqa: B902  a reset request must never end the node
-            response.success = False
-            response.message = (f'reset failed: {type(exc).__name__}: {exc}'.splitlines()[0]
-                                + f' (load {self._load:g} N); the muscle stays broken')
-            self.get_logger().error(response.message, throttle_duration_sec=WARN_PERIOD)
-            return response
-        self._drive = ('power', 0.0)
-        self._last_command_ns = None
-        self._watchdog_tripped = False
-        self._task.holding = False  # a scored run's hold ends: lockstep goes on
-        response.success = True
-        response.message = (f'reset to the loaded equilibrium at '
-                            f'{self._sim.state.temperature:g} degC, load {self._load:g} N')
-        self.get_logger().info(response.message)
-        self._diagnostics.update()
-        return response
 
 
 def main(args=None):

@@ -15,17 +15,14 @@ calls ``drive`` before stepping, ``sample`` when it samples the state and
 """
 import math
 
-from rclpy.qos import QoSProfile
 from rclpy.qos_overriding_options import QoSOverridingOptions
 from sensor_msgs.msg import Temperature
 from std_msgs.msg import Float64
 
 from tca_ros.model.rigs import ANTAGONISTIC, ISOMETRIC, SPRING
+from tca_ros.node_clock import NS, WARN_PERIOD
+from tca_ros.node_inputs import COMMAND_QOS  # as the node's own command topics
 from tca_ros.node_outputs import STATE_QOS  # as the node's state topics
-
-COMMAND_QOS = QoSProfile(depth=10)
-WARN_PERIOD = 1.0  # s between repeats of a throttled warning
-_NS = 1_000_000_000
 
 
 class RigTopics:
@@ -78,7 +75,7 @@ class RigTopics:
         settings = self._settings()
         timeout = settings['command_timeout']
         stale = self._command_ns is not None and timeout > 0.0 and \
-            now_ns - self._command_ns > timeout * _NS
+            now_ns - self._command_ns > timeout * NS
         if stale and not self._timed_out:
             self._timed_out = True
             self._node.get_logger().warning(
