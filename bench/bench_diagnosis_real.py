@@ -43,7 +43,8 @@ import time
 import numpy as np
 
 from tca_ros.diagnosis import diagnose
-from tca_ros.diagnosis.realistic import conditions, OUTSIDE, RATES, realistic_case, truth_path
+from tca_ros.diagnosis.realistic import conditions, OUTSIDE, RATES, realistic_case, \
+    realistic_loads, truth_path
 from tca_ros.model.effects import CATALOGUE
 from tca_ros.model.params import dump_params
 
@@ -67,9 +68,7 @@ def _records(seed, hidden, directory, masses):
     if not masses:
         path, start = realistic_case(seed, hidden, directory)
         return [path], start
-    cases = [realistic_case(seed, hidden, directory, mass=m, take=k)
-             for k, m in enumerate(masses)]
-    return [path for path, _ in cases], cases[0][1]
+    return realistic_loads(seed, hidden, directory, masses)
 
 
 def _diagnosis(paths, start):

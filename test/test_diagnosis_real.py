@@ -13,7 +13,8 @@ import pytest
 
 from tca_ros.diagnosis import diagnose, format_summary
 from tca_ros.diagnosis.data import write_csv_record
-from tca_ros.diagnosis.realistic import bench_record, realistic_case, realistic_set
+from tca_ros.diagnosis.realistic import bench_record, realistic_case, realistic_loads, \
+    realistic_set
 from tca_ros.diagnosis.verdict import ONE_LOAD_NOTE
 from tca_ros.model.params import dump_params, GRAVITY
 from tca_ros.model.simulation import simulate
@@ -320,9 +321,7 @@ def test_a_sensor_nonlinearity_one_load_hides_is_exposed_by_two_loads_together(t
     def records(hidden, masses):
         directory = tmp_path / ('defect' if hidden else 'twin')
         directory.mkdir(exist_ok=True)
-        cases = [realistic_case(9059, hidden, str(directory), mass=m, take=k)
-                 for k, m in enumerate(masses)]
-        return [path for path, _ in cases], cases[0][1]
+        return realistic_loads(9059, hidden, str(directory), masses)
 
     one, start = records(['sensor_nonlinearity'], [0.025])
     alone = diagnose(one[0], start, progress=False)

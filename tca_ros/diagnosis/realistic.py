@@ -217,3 +217,15 @@ def realistic_case(seed, hidden, directory, duration=240.0, mass=None, take=0, *
     path = os.path.join(directory, f'record_{seed}{_take_suffix(take)}.csv')
     write_csv_record(record, path)
     return path, start_path
+
+
+def realistic_loads(seed, hidden, directory, masses):
+    """Write records of one muscle at each of ``masses`` (kg); return (paths, start path).
+
+    Record k is :func:`realistic_case`'s ``take`` k at ``masses[k]``: the same
+    muscle and effects, its own power profile and noise (the first one's as
+    the drawn case's), for diagnosing several loads together.
+    """
+    cases = [realistic_case(seed, hidden, directory, mass=m, take=k)
+             for k, m in enumerate(masses)]
+    return [path for path, _ in cases], cases[0][1]
