@@ -5,11 +5,34 @@ rclpy, before any callback of ours runs) escape and end the process: seen once a
 "RuntimeError: Unable to convert call argument '0' to Python object" from
 ``take_message``. Here each event is taken on its own; such a failure costs that one
 event, is logged (throttled) and counted, and the node keeps serving.
+
+A stop signal can also land while the executor is being built (just after the node
+logs that it is ready): rclpy's constructor then fails on the shut-down context and
+its ``__del__`` prints an AttributeError traceback for the half-built object. That
+case is a stop too, and ends quietly.
 """
 from rclpy._rclpy_pybind11 import RCLError
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 
 LOG_PERIOD = 1.0  # s between repeats of the dropped-event error
+
+
+class StopSafeExecutor(SingleThreadedExecutor):
+    """rclpy's single-threaded executor whose finaliser accepts a half-built object."""
+
+    def __del__(self):
+        if getattr(self, '_sigint_gc', None) is not None:
+            super().__del__()
+
+
+def new_executor(context):
+    """A StopSafeExecutor on ``context``, or None if a stop shut the context meanwhile."""
+    try:
+        return StopSafeExecutor(context=context)
+    except Exception:  # noqa: B902  rclpy fails with TypeError or RCLError here
+        if context.ok():
+            raise
+        return None
 
 
 def spin_resiliently(node, executor=None):
@@ -18,7 +41,9 @@ def spin_resiliently(node, executor=None):
     KeyboardInterrupt and ExternalShutdownException end the spin as ``rclpy.spin``
     does; an RCLError after the context was shut down (a stop) ends it quietly.
     """
-    executor = executor or SingleThreadedExecutor(context=node.context)
+    executor = executor or new_executor(node.context)
+    if executor is None:
+        return 0  # stopped before the spin began
     executor.add_node(node)
     dropped = 0
     try:

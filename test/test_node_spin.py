@@ -1,4 +1,8 @@
 """spin_resiliently: an event that fails inside the executor costs that event, not the node."""
+import gc
+import sys
+
+import pytest
 import rclpy
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
@@ -32,3 +36,20 @@ def test_a_failing_take_is_dropped_and_counted_and_the_spin_goes_on():
     finally:
         node.destroy_node()
         context.try_shutdown()
+
+
+def test_a_stop_while_the_executor_is_built_ends_the_spin_quietly(monkeypatch):
+    unraisable = []
+    monkeypatch.setattr(sys, 'unraisablehook', unraisable.append)
+    context = rclpy.Context()
+    rclpy.init(context=context)
+    node = Node('spin_probe_stopped', context=context)
+    try:
+        context.try_shutdown()  # SIGTERM's handler, arriving just before the spin
+        assert spin_resiliently(node) == 0
+        gc.collect()
+        assert unraisable == []  # no 'Exception ignored in Executor.__del__' traceback
+        with pytest.raises(Exception):
+            SingleThreadedExecutor(context=context)  # rclpy's own: fails on a stopped context
+    finally:
+        node.destroy_node()
