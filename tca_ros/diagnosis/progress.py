@@ -7,15 +7,20 @@ PROGRESS_INTERVAL = 0.25  # s between progress-bar redraws
 
 
 class Progress:
-    """A one-line progress bar on stderr, counting simulations."""
+    """A one-line progress bar on stderr, counting simulations.
+
+    Drawn only on a terminal: redirected to a file or a pipe, carriage-return redraws
+    would pile up into one huge line, so the bar stays silent there. Redraws are at most
+    every PROGRESS_INTERVAL seconds, also once the count passes its estimate ``total``.
+    """
 
     def __init__(self, enabled, total, width=30, stream=None):
-        self.enabled = enabled
+        self.stream = stream or sys.stderr
+        self.enabled = enabled and _is_terminal(self.stream)
         self.total = max(total, 1)
         self.width = width
         self.count = 0
         self.label = ''
-        self.stream = stream or sys.stderr
         self.start = wallclock.perf_counter()
         self._drawn = -math.inf
 
@@ -27,7 +32,7 @@ class Progress:
         if not self.enabled:
             return
         now = wallclock.perf_counter()
-        if now - self._drawn < PROGRESS_INTERVAL and self.count < self.total:
+        if now - self._drawn < PROGRESS_INTERVAL and self.count != self.total:
             return
         self._drawn = now
         filled = min(self.width, int(self.width * self.count / self.total))
@@ -41,3 +46,9 @@ class Progress:
         if self.enabled:
             self.stream.write('\n')
             self.stream.flush()
+
+
+def _is_terminal(stream):
+    """Return True when ``stream`` is an interactive terminal."""
+    isatty = getattr(stream, 'isatty', None)
+    return bool(isatty and isatty())
