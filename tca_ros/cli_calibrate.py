@@ -66,7 +66,7 @@ def cmd_calibrate(args, out):
     from tca_ros.diagnosis.calibration import calibrate, CalibrationError
     from tca_ros.diagnosis.calibration_report import format_summary
     from tca_ros.diagnosis.data import read_record, record_config
-    from tca_ros.model.params import dump_params, load_params
+    from tca_ros.model.params import dump_params, load_params, muscle_at_rest
     if os.path.exists(args.out) and not args.force:
         raise InputError(f'--out = {args.out!r}: exists (pass --force to overwrite)')
     if args.report and os.path.exists(args.report) and not os.path.isdir(args.report):
@@ -87,7 +87,8 @@ def cmd_calibrate(args, out):
     for est in cal.report.estimates.values():
         state = 'fitted' if est.determined else 'NOT determined: mostly its prior'
         header.append(f'{est.name} = {est.value:.5g} +- {est.stderr:.2g} {est.unit} ({state})')
-    dump_params(cal.params, args.out, header='\n'.join(header))
+    muscle, start_note = muscle_at_rest(cal.params)
+    dump_params(muscle, args.out, header='\n'.join(header) + start_note)
     out.write(f'wrote {args.out}\n')
     loco = None
     if args.loco:

@@ -18,6 +18,9 @@ delivered_power_ratio       -       thermal.delivered_power_ratio (nominal power
 resistance                  ohm     electrical.resistance, R0 (with a resistance column)
 resistance_temperature_coef 1/K     electrical.temperature_coefficient
 resistance_strain_coef      -       electrical.strain_coefficient
+initial_temperature_rise    K       thermal.initial_temperature_rise: the record begins
+                                    that much above ambient (one record; when named in
+                                    ``fit``, or by default when starts_warm says so)
 effects.<name>              schema  a catalogue effect's parameter (model/effects.py),
                                     when named in ``fit``: the nominal model and one
                                     effect calibrated together (the diagnosis's joint
@@ -52,6 +55,10 @@ PEAK_PERCENTILE = 99.5  # % of a record's contraction taken as its peak (spike-r
 DISPLACEMENT_SCALE_FLOOR = 1e-6  # m, residual scale floor (a good encoder's resolution)
 MIN_PHYSICS_RATE_HZ = 200.0  # Hz, full-dynamics check
 NOMINAL_LEVELS = 2  # a power column with at most this many distinct values is nominal
+WARM_START_WINDOW_S = 1.0  # s of power off at the start needed to see a warm start
+WARM_START_SAMPLES = 8  # samples of power off at the start needed likewise
+WARM_START_SIGMAS = 4.0  # the fall over them that is no noise, in its standard errors
+WARM_START_MIN_FALL_K = 0.3  # K, and at least this fall (a thermocouple's resolution)
 
 
 class CalibrationError(ValueError):
@@ -61,6 +68,33 @@ class CalibrationError(ValueError):
 def is_nominal_power(records):
     """Return True when every record's power takes at most NOMINAL_LEVELS values (on/off)."""
     return all(np.unique(r.power).size <= NOMINAL_LEVELS for r in records)
+
+
+def starts_warm(record, ambient):
+    """Return True when the record's logged temperature shows it beginning warm.
+
+    Before the first power, a muscle at rest holds its temperature; one that has not
+    cooled from an earlier heating still falls. Warm: the record logs temperature, the
+    power stays off for at least WARM_START_WINDOW_S and WARM_START_SAMPLES samples,
+    the first quarter of that span is above ``ambient`` (degC) and its median
+    temperature exceeds the last quarter's by WARM_START_SIGMAS noise sigmas and
+    WARM_START_MIN_FALL_K. Without a temperature channel the start is taken at rest:
+    a creeping coil stretches there as a cooling one does (docs/diagnosis.md
+    section 19).
+    """
+    from tca_ros.diagnosis.residuals import noise_sigma
+    if record.temperature is None:
+        return False
+    on = np.flatnonzero(record.power > 0.0)
+    end = int(on[0]) if on.size else record.time.size
+    if end < WARM_START_SAMPLES or record.time[end - 1] - record.time[0] < WARM_START_WINDOW_S:
+        return False
+    rest = record.temperature[:end]
+    quarter = max(1, end // 4)
+    first, last = float(np.median(rest[:quarter])), float(np.median(rest[-quarter:]))
+    sigma = noise_sigma(record.temperature) / np.sqrt(quarter)
+    return (first > ambient and first - last > WARM_START_MIN_FALL_K
+            and first - last > WARM_START_SIGMAS * np.sqrt(2.0) * sigma)
 
 
 def record_params(params, record):
@@ -243,6 +277,11 @@ def calibrate(records, params, model=None, fit=None, progress=False, max_nfev=40
     priors = calibration_priors(start, nominal, 'resistance' in channels, r0, supply,
                                 damping_bound(start, model))
     names = list(fit) if fit else list(DEFAULT_FIT)
+    if not fit and len(records) == 1 and starts_warm(records[0],
+                                                     start.thermal.ambient_temperature):
+        names.append('initial_temperature_rise')
+        notes.append('the logged temperature falls before any power: the record begins '
+                     'warm, thermal.initial_temperature_rise fitted')
     unknown = [n for n in names if n not in DEFAULT_FIT + OPTIONAL_FIT + EFFECT_PARAMETERS]
     if unknown:
         raise CalibrationError(f'--fit {unknown[0]!r}: unknown; allowed: '
@@ -252,6 +291,9 @@ def calibrate(records, params, model=None, fit=None, progress=False, max_nfev=40
     if 'friction_force' in names and 'effects.friction_force' in names:
         raise CalibrationError("--fit 'effects.friction_force': the same parameter as "
                                "'friction_force'; name it once")
+    if len(records) > 1 and 'initial_temperature_rise' in names:
+        raise CalibrationError(f"--fit 'initial_temperature_rise': one value cannot stand for "
+                               f'the starts of {len(records)} records; fit it on one record')
     priors.update(effect_priors(names, start))
     parameters = [priors[n] for n in names if n in priors]
     if not nominal:

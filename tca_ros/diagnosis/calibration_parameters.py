@@ -17,7 +17,13 @@ from tca_ros.model.thermal import heat_capacity, surface_area, thermal_conductan
 DEFAULT_FIT = ('thermal_time_constant', 'steady_rise', 'actuation_gain', 'stiffness_scale',
                'damping', 'delivered_power_ratio', 'resistance',
                'resistance_temperature_coef', 'resistance_strain_coef')
-OPTIONAL_FIT = ('friction_force',)  # fitted when named in ``fit`` (a diagnosis effect else)
+#: prior standard deviation (K) of a record's initial temperature rise: nearly flat
+#: over the 0-60 K a muscle keeps a minute or so after a heating
+INITIAL_RISE_SPREAD = 30.0
+INITIAL_RISE_MAX = 300.0  # K, the schema's bound of thermal.initial_temperature_rise
+#: fitted when named in ``fit``: friction (a diagnosis effect else); the initial rise also
+#: by default on one record whose logged temperature shows it beginning warm (starts_warm)
+OPTIONAL_FIT = ('friction_force', 'initial_temperature_rise')
 #: catalogue effect parameters a calibration fits when named in ``fit`` (dotted names)
 EFFECT_PARAMETERS = tuple(n for names in CATALOGUE.values() for n in names
                           if n.startswith('effects.'))
@@ -80,6 +86,10 @@ def calibration_priors(params, nominal_power, has_resistance, r0_measured=None,
                          min(max(params.dynamics.damping, 1e-3), max_damping), 1e-3,
                          max_damping, math.log(10.0), description='b_t of eq. (18)'),
     ]
+    out.append(engine.Parameter(
+        'initial_temperature_rise', 'K', params.thermal.initial_temperature_rise, 0.0,
+        INITIAL_RISE_MAX, INITIAL_RISE_SPREAD, log=False,
+        description='T(0) - T_inf: a record that begins warm (0: at rest)'))
     if nominal_power:
         out.append(engine.Parameter(
             'delivered_power_ratio', '-', params.thermal.delivered_power_ratio, 0.2, 5.0,
@@ -152,7 +162,8 @@ def apply_calibration(params, values):
               'delivered_power_ratio': 'thermal.delivered_power_ratio',
               'resistance': 'electrical.resistance',
               'resistance_temperature_coef': 'electrical.temperature_coefficient',
-              'resistance_strain_coef': 'electrical.strain_coefficient'}
+              'resistance_strain_coef': 'electrical.strain_coefficient',
+              'initial_temperature_rise': 'thermal.initial_temperature_rise'}
     for name, dotted in simple.items():
         if name in values:
             flat[dotted] = values[name]

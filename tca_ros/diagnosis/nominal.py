@@ -18,6 +18,7 @@ from tca_ros.diagnosis.record_ops import decimated
 PEAK_PERCENTILE = 99.5  # % of measured contraction taken as its peak (noise-robust)
 INITIAL_WINDOW_S = 1.0  # s at the start of a record taken as ambient equilibrium
 CALIBRATION_RATE_HZ = 10.0  # the calibrate-first step fits block means at about this rate
+WARM_START_NOTE_K = 1.0  # K: a fitted initial rise from here on is said in the notes
 
 
 class DiagnosisError(ValueError):
@@ -150,4 +151,8 @@ def calibrate_training_part(records, params_of, model, fraction, supply, progres
     fitted = [e.name for e in cal.report.estimates.values() if e.determined]
     note = ('nominal parameters calibrated on the training part: '
             + (', '.join(fitted) if fitted else 'none determined'))
+    rise = cal.params.thermal.initial_temperature_rise
+    if 'initial_temperature_rise' in fitted and rise >= WARM_START_NOTE_K:
+        note += (f'; the record begins {rise:.3g} K above ambient (not at rest: '
+                 'thermal.initial_temperature_rise)')
     return cal, calibrated, note

@@ -12,7 +12,7 @@ import numpy as np
 from tca_ros.diagnosis import plots
 from tca_ros.diagnosis.summary import heldout_text
 from tca_ros.diagnosis.verdict import gain
-from tca_ros.model.params import dump_params
+from tca_ros.model.params import dump_params, muscle_at_rest
 
 FIGURE_DPI = 110
 
@@ -243,7 +243,8 @@ def write_report(result, report_dir):
               f'{", ".join(result.effects) or "none"}; verdict {result.verdict}\n'
               f'effect parameters fitted with model={result.model}; dynamics.mass and '
               'dynamics.load taken from the record')
-    dump_params(result.extended_params, params_path, header=header)
+    muscle, start_note = muscle_at_rest(result.extended_params)
+    dump_params(muscle, params_path, header=header + start_note)
     result.extended_params_path = params_path
     figures = write_figures(result, report_dir)
     result.figures = figures

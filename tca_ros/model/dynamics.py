@@ -162,14 +162,17 @@ class TcaSimulator:
 
     # -- set-up -------------------------------------------------------------------
     def reset(self, load=None, temperature=None):
-        """Return to equilibrium at ``temperature`` (degC, default ambient) under load (N).
+        """Return to equilibrium at ``temperature`` (degC) under load (N).
 
-        The displacement reference is this loaded equilibrium at ambient.
+        The default temperature is ambient plus ``thermal.initial_temperature_rise``
+        (K; 0: at rest). The displacement reference is the loaded equilibrium at
+        ambient, so a warm start reads the contraction of its excess.
         """
         p = self.params
         load = p.dynamics.load if load is None else float(load)
         ambient = self._heat.ambient
-        temp = ambient if temperature is None else float(temperature)
+        temp = (ambient + p.thermal.initial_temperature_rise if temperature is None
+                else float(temperature))
         q = self.equilibrium(load, temp)
         self.reference_elongation = self.equilibrium(load, ambient)
         self.loaded_length = self.kinetostatics.natural_length + self.reference_elongation

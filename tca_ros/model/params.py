@@ -71,12 +71,17 @@ class CoilParams:
 
 @dataclass(frozen=True)
 class ThermalParams:
-    """Thermal model, eq. (1): h (W/(m^2 K)), c_s (-), ambient (degC), P_in / P (-)."""
+    """Thermal model, eq. (1): h (W/(m^2 K)), c_s (-), ambient (degC), P_in / P (-).
+
+    ``initial_temperature_rise`` (K): T(0) - T_inf, the fibre's excess over ambient at
+    the start of a simulation (0: at rest).
+    """
 
     convection_coefficient: float
     surface_factor: float
     ambient_temperature: float
     delivered_power_ratio: float = 1.0
+    initial_temperature_rise: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -182,6 +187,21 @@ def _field_name(key):
     if key.endswith('_degc'):
         return key[:-5]
     return key
+
+
+def muscle_at_rest(params):
+    """Return (``params`` starting at rest, a header line saying so or '').
+
+    A calibration or diagnosis fits ``thermal.initial_temperature_rise`` (K) of the
+    record it saw; a params file written for the user describes the muscle, which
+    the node and the CLI then start at rest.
+    """
+    rise = params.thermal.initial_temperature_rise
+    if rise <= 0.0:
+        return params, ''
+    return (params.with_values(**{'thermal.initial_temperature_rise': 0.0}),
+            f'\nthe record began {rise:.3g} K above ambient (fitted); written as '
+            'thermal.initial_temperature_rise 0: the muscle at rest')
 
 
 def from_flat_dict(values, source=''):

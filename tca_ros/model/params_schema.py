@@ -108,6 +108,10 @@ SCHEMA = (
     _p('thermal.delivered_power_ratio', 1.0, '-',
        'P_in of eq. (1) over the logged or commanded power (1 = as logged; calibrated '
        'when a record gives nominal power).', 0.05, 5.0),
+    _p('thermal.initial_temperature_rise', 0.0, 'K',
+       'Fibre temperature above ambient at the start (t = 0 of a simulation, a node '
+       'reset): 0 starts at rest; a record that begins before the muscle has cooled '
+       'has it above 0 (the diagnosis fits it per record).', 0.0, 300.0),
     # Moduli, eqs. (9)-(11)
     _p('moduli.youngs_modulus', 1.2e9, 'Pa', 'Measured E at T0, no load (scales eq. (9)).',
        1e6, 1e12),

@@ -42,7 +42,7 @@ from tca_ros.model.quasistatic_signals import actuating_temperature, first_order
 from tca_ros.model.quasistatic_voltage import voltage_drive
 from tca_ros.model.resistance import resistance
 from tca_ros.model.rod_model import mechanical_params
-from tca_ros.model.simulation import SimulationResult
+from tca_ros.model.simulation import read_from_start, SimulationResult
 from tca_ros.model.static_maps import cached_map, make_statics, map_covers, MAP_EXTENSION, \
     MAP_MARGIN, QuasiStaticUnsupported, static_map, store_map
 
@@ -129,6 +129,11 @@ class QuasiStaticPlant:
                 f'load takes {distinct.size} distinct values; the quasi-static reduction '
                 f'solves at most {MAX_DISTINCT_LOADS}: use simulation.simulate')
         e = params.effects
+        warm = params.thermal.initial_temperature_rise > 0.0
+        if supply == 'voltage' and warm:
+            raise QuasiStaticUnsupported(
+                'thermal.initial_temperature_rise > 0 with a voltage supply: the quasi-static '
+                'voltage drive starts at rest; use simulation.simulate')
         if supply == 'voltage':
             temperature, fiber = voltage_drive(self, time, power, acting,
                                                qe.creep_elongation(time, load, e))
@@ -163,6 +168,8 @@ class QuasiStaticPlant:
                 time, contraction - contraction[0], params.effects.sensor_lag, held=False)
         r = resistance(temperature, contraction, self.loaded_length(float(load[0])),
                        params.electrical, params.thermal.ambient_temperature)
+        if warm:  # the sensor reads zero where the record starts, warm
+            measured, contraction = read_from_start(measured, contraction)
         velocity = np.gradient(contraction, time) if time.size > 1 else np.zeros_like(time)
         return SimulationResult(time=time, power=power, load=load, displacement=measured,
                                 temperature=temperature, resistance=r, tension=tension,

@@ -156,37 +156,41 @@ def equilibrium_bound(heating, balance):
     return balance.ambient + direction * high
 
 
-def rk4_substeps(intervals, heating, balance):
+def rk4_substeps(intervals, heating, balance, start=None):
     """Return the RK4 substeps (int array) of each interval (s) under ``heating`` (W).
 
     The fewest equal substeps with h lambda <= RK4_STEP_RATE, lambda = Q'(T) / m_t c_p
-    (1/s) at the hottest (and coldest) equilibrium the heating can reach; Q' grows
-    away from ambient, so that bounds lambda over the record.
+    (1/s) at the hottest (and coldest) equilibrium the heating can reach, or at the
+    ``start`` temperature (degC) when that is hotter; Q' grows away from ambient, so
+    that bounds lambda over the record.
     """
     heating = np.asarray(heating, dtype=float)
     extremes = {float(np.max(heating, initial=0.0)), float(np.min(heating, initial=0.0))}
-    rate = max(heat_loss_slope(equilibrium_bound(p, balance), balance)
-               for p in extremes) / balance.capacity
+    hottest = [equilibrium_bound(p, balance) for p in extremes]
+    if start is not None:
+        hottest.append(start)
+    rate = max(heat_loss_slope(t, balance) for t in hottest) / balance.capacity
     return np.maximum(1, np.ceil(np.asarray(intervals) * rate / RK4_STEP_RATE)).astype(int)
 
 
-def nonlinear_thermal_response(time, heating, balance):
+def nonlinear_thermal_response(time, heating, balance, rise=0.0):
     """Return T (degC) at ``time`` (s) of eq. (1') under zero-order-hold heating (W).
 
-        m_t c_p dT/dt = P_in - Q(T),  T(0) = T_inf
+        m_t c_p dT/dt = P_in - Q(T),  T(0) = T_inf + rise
 
     ``heating`` is P_in over each interval [t_k, t_k+1) (already delayed and scaled
-    by the thermal effects). Radiation and nonlinear convection; rk4_substeps
-    equal RK4 substeps per interval.
+    by the thermal effects); ``rise`` (K) the start's excess over ambient (0: at
+    rest). Radiation and nonlinear convection; rk4_substeps equal RK4 substeps per
+    interval.
     """
     time = np.asarray(time, dtype=float)
     heating = np.asarray(heating, dtype=float)
     out = np.empty(time.size)
     if time.size == 0:
         return out
-    out[0] = balance.ambient
+    out[0] = balance.ambient + rise
     intervals = np.diff(time)
-    substeps = rk4_substeps(intervals, heating[:-1], balance)
+    substeps = rk4_substeps(intervals, heating[:-1], balance, out[0] if rise > 0.0 else None)
     held = heating[:-1]
     if substeps.max(initial=1) > 1:
         intervals = np.repeat(intervals / substeps, substeps)

@@ -22,20 +22,26 @@ def thermal_response(time, power, params):
     Exact for the linear eq. (1): over each interval the temperature relaxes to
     T_inf + P_in / (h c_s A_0) with the time constant m_t c_p / (h c_s A_0). P_in
     is the logged power times ``thermal.delivered_power_ratio`` and (1 - power
-    loss), delayed by ``effects.dead_time`` when set; the start is at ambient.
-    With radiation or nonlinear convection, eq. (1') of quasistatic_effects (RK4).
+    loss), delayed by ``effects.dead_time`` when set; the start is
+    ``thermal.initial_temperature_rise`` (K) above ambient, an excess that decays
+    with the same time constant (superposition). With radiation or nonlinear
+    convection, eq. (1') of quasistatic_effects (RK4) from that start.
     """
     time = np.asarray(time, dtype=float)
     heating = fx.heating_power(np.asarray(power, dtype=float), params.effects,
                                params.thermal.delivered_power_ratio)
     heating = delayed_input(time, heating, params.effects.dead_time)
     balance = qe.HeatBalance.of(params)
+    rise = params.thermal.initial_temperature_rise
     if not balance.linear:
-        return qe.nonlinear_thermal_response(time, heating, balance)
+        return qe.nonlinear_thermal_response(time, heating, balance, rise)
     conductance = thermal_conductance(params.fiber, params.thermal)
     tau = heat_capacity(params.fiber) / conductance
     ambient = fx.true_ambient(params.thermal, params.effects)
-    return ambient + first_order_response(time, heating / conductance, tau)
+    response = ambient + first_order_response(time, heating / conductance, tau)
+    if rise > 0.0 and time.size:
+        response = response + rise * np.exp(-(time - time[0]) / tau)
+    return response
 
 
 def actuating_temperature(time, temperature, params):

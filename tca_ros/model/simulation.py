@@ -46,7 +46,9 @@ def simulate(params, time, power, load=None, model=None, physics_rate=1000.0,
     starts at the loaded equilibrium at ambient under ``load[0]``. ``supply``:
     'power' (the column is the power delivered) or 'voltage' (the column is the
     nominal power of a constant-voltage supply set at R0, so the power applied
-    is P R0 / R(T, x), updated every physics step).
+    is P R0 / R(T, x), updated every physics step). With
+    ``thermal.initial_temperature_rise`` > 0 the start is that much above ambient
+    and the displacement is read from the start (:func:`read_from_start`).
     """
     if supply not in ('power', 'voltage'):
         raise ValueError(f"supply = {supply!r}: must be 'power' or 'voltage'")
@@ -81,9 +83,22 @@ def simulate(params, time, power, load=None, model=None, physics_rate=1000.0,
                 applied = applied * params.electrical.resistance / state.resistance
             state = sim.step(applied, load[i - 1])
         out[:, i] = _sample(state)
+    if params.thermal.initial_temperature_rise > 0.0:
+        out[0], out[5] = read_from_start(out[0], out[5])
     return SimulationResult(time=time, power=power, load=load, displacement=out[0],
                             temperature=out[1], resistance=out[2], tension=out[3],
                             velocity=out[4], true_displacement=out[5], substeps=n0)
+
+
+def read_from_start(measured, true_displacement):
+    """Return both contractions (m) less their first value: zero at the start.
+
+    A record's sensor reads zero where the record starts. At rest that is the
+    loaded equilibrium at ambient, the simulators' reference, and nothing
+    changes; a record that begins warm (``thermal.initial_temperature_rise`` > 0)
+    starts at the contraction of that excess, and cooling reads below zero.
+    """
+    return measured - measured[0], true_displacement - true_displacement[0]
 
 
 def _sample(s):
