@@ -59,14 +59,21 @@ REAL_DIR = os.path.normpath(os.path.join(HERE, '..', '..', 'shared', 'realdata',
                                          'records'))
 
 
-#: hanging masses (kg) of the two-load out-of-catalogue cases: one muscle, two records
 TWO_LOADS = (0.015, 0.04)
 
 
-def _records(seed, hidden, directory, masses):
+#: hanging masses (kg) of the two-load out-of-catalogue cases: one muscle, two records
+#: warm-start cases: 30 s at 0.5 W ending 5 s before the record, the fibre still tens of
+#: kelvin above ambient at its start; (hidden, temperature logged) per case
+WARM = {'not_at_rest': True, 'cool_before': 5.0}
+WARM_CASES = (([], True), ([], True), ([], False), ([], False), (['hysteresis'], True),
+              (['friction'], True), (['creep'], True), (['second_thermal_lag'], True))
+
+
+def _records(seed, hidden, directory, masses, overrides=None):
     """Write the records of a case; return (record paths, start path)."""
     if not masses:
-        path, start = realistic_case(seed, hidden, directory)
+        path, start = realistic_case(seed, hidden, directory, **(overrides or {}))
         return [path], start
     return realistic_loads(seed, hidden, directory, masses)
 
@@ -88,17 +95,17 @@ def run_case(args):
     defect), which says whether the verdict can come from the defect at all.
     Two-load cases (``masses``) diagnose two records of one muscle together.
     """
-    seed, hidden, directory, masses = args
+    seed, hidden, directory, masses, overrides = args
     case_dir = os.path.join(directory, f'{seed}_{len(masses)}')
     os.makedirs(case_dir, exist_ok=True)
-    paths, start = _records(seed, hidden, case_dir, masses)
+    paths, start = _records(seed, hidden, case_dir, masses, overrides)
     t0 = time.perf_counter()
     found, helpful, verdict = _diagnosis(paths, start)
     seconds = time.perf_counter() - t0
     row = {'seed': seed, 'hidden': hidden, 'loads': max(len(masses), 1), 'found': found,
            'helpful': helpful, 'verdict': verdict, 'seconds': seconds,
            'truth_structured': truth_structured(paths[0], truth_path(case_dir, seed)),
-           **conditions(seed)}
+           'warm': bool(overrides), **conditions(seed), **(overrides or {})}
     if group_of(hidden) == 'out-of-catalogue':
         twin_dir = os.path.join(case_dir, 'twin')
         os.makedirs(twin_dir, exist_ok=True)
@@ -137,13 +144,15 @@ def group_of(hidden):
     return 'pair' if len(hidden) > 1 else 'single'
 
 
-GROUPS = ('null', 'single', 'pair', 'out-of-catalogue', 'out-of-catalogue, 2 loads')
+GROUPS = ('null', 'single', 'pair', 'out-of-catalogue', 'out-of-catalogue, 2 loads',
+          'null, warm start', 'single, warm start')
 
 
 def row_group(row):
-    """Return the table group of a row (its case group, and how many loads together)."""
+    """Return the table group of a row (its case group, loads together, a warm start)."""
     group = group_of(row['hidden'])
-    return group + (f', {row["loads"]} loads' if row['loads'] > 1 else '')
+    return group + (f', {row["loads"]} loads' if row['loads'] > 1 else '') + (
+        ', warm start' if row.get('warm') else '')
 
 
 def print_outside(group, rows):
@@ -176,8 +185,8 @@ def right(row):
     return set(found) == expected
 
 
-def cases(n_null, per_effect, n_pairs, n_outside, seed0):
-    """Return [(seed, hidden names, masses (kg) of a several-load case or ())]."""
+def cases(n_null, per_effect, n_pairs, n_outside, seed0, n_warm=len(WARM_CASES)):
+    """Return [(seed, hidden names, masses (kg) of a several-load case or (), overrides)]."""
     rng = np.random.default_rng(seed0)
     out, seed = [], seed0
     for _ in range(n_null):
@@ -193,10 +202,16 @@ def cases(n_null, per_effect, n_pairs, n_outside, seed0):
     for k in range(n_outside):
         out.append((seed, [OUTSIDE[k % len(OUTSIDE)]]))
         seed += 1
-    out = [(seed, hidden, ()) for seed, hidden in out]
+    out = [(seed, hidden, (), None) for seed, hidden in out]
     # the same out-of-catalogue muscles with two loads diagnosed together: a defect
     # that one load hides in the calibration shows there (docs section 18)
-    return out + [(seed, hidden, TWO_LOADS) for seed, hidden, _ in out[len(out) - n_outside:]]
+    out += [(seed, hidden, TWO_LOADS, None)
+            for seed, hidden, _, _ in out[len(out) - n_outside:]]
+    # records that begin warm (docs section 19): the calibration fits the start's
+    # excess where the logged temperature shows it
+    for k, (hidden, logged) in enumerate(WARM_CASES[:n_warm]):
+        out.append((seed + k, hidden, (), {**WARM, 'temperature': logged}))
+    return out
 
 
 def main(argv=None):
@@ -206,17 +221,20 @@ def main(argv=None):
     parser.add_argument('--per-effect', type=int, default=3)
     parser.add_argument('--pairs', type=int, default=8)
     parser.add_argument('--outside', type=int, default=12)
+    parser.add_argument('--warm', type=int, default=len(WARM_CASES),
+                        help='warm-start cases (at most %(default)s)')
     parser.add_argument('--jobs', type=int, default=2)
     parser.add_argument('--seed', type=int, default=9000)
     parser.add_argument('--save', default='', help='write the rows as JSON to this file')
     parser.add_argument('--real', default=REAL_DIR,
                         help='directory of real records diagnosed together ("" to skip)')
     args = parser.parse_args(argv)
-    todo = cases(args.null, args.per_effect, args.pairs, args.outside, args.seed)
+    todo = cases(args.null, args.per_effect, args.pairs, args.outside, args.seed, args.warm)
     rows = []
     if todo:
         with tempfile.TemporaryDirectory() as directory:
-            work = [(seed, hidden, directory, masses) for seed, hidden, masses in todo]
+            work = [(seed, hidden, directory, masses, over)
+                    for seed, hidden, masses, over in todo]
             start = time.perf_counter()
             with multiprocessing.Pool(args.jobs) as pool:
                 rows = pool.map(run_case, work, chunksize=1)
@@ -236,7 +254,9 @@ def print_table(rows, wall, jobs):
     score = collections.Counter()
     for row in rows:
         key = (' + '.join(row['hidden']) or NULL) + (
-            f' ({row["loads"]} loads together)' if row['loads'] > 1 else '')
+            f' ({row["loads"]} loads together)' if row['loads'] > 1 else '') + (
+            f' (warm start{", T logged" if row["temperature"] else ""})'
+            if row.get('warm') else '')
         named = ' + '.join(row['found']) or (UNEXPLAINED if row['verdict'] == UNEXPLAINED
                                              else NULL)
         table[key][named] += 1
@@ -253,6 +273,10 @@ def print_table(rows, wall, jobs):
     for group in groups:
         print(f'{group:<28s} right: {score[group]}/{score[group + " n"]}')
     null_named = sum(1 for r in rows if group_of(r['hidden']) == 'null' and r['found'])
+    for r in (r for r in rows if r.get('warm')):
+        print(f'    warm start {r["seed"]} {"+".join(r["hidden"]) or NULL:<20s} '
+              f'{r["rate"]:5.0f} Hz, T {"logged" if r["temperature"] else "not logged"}: '
+              f'{r["verdict"]:<12s} named {"+".join(r["found"]) or "-"}')
     print(f'null records with an effect named: {null_named}')
     for group in ('null', 'single', 'pair'):
         sub = [r for r in rows if group_of(r['hidden']) == group]

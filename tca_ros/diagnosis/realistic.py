@@ -18,10 +18,12 @@ import numpy as np
 from tca_ros.diagnosis.calibration import apply_calibration, record_params
 from tca_ros.diagnosis.data import Record, write_csv_record
 from tca_ros.diagnosis.generator import draw_effect_values, random_power_profile
-from tca_ros.model.effects import CATALOGUE
+from tca_ros.model.effects import CATALOGUE, true_ambient
 from tca_ros.model.params import dump_params, GRAVITY, load_params
 from tca_ros.model.simulation import simulate
 from tca_ros.model.thermal import heat_capacity, thermal_conductance
+
+WARM_TRUTH_K = 0.05  # K: a start warmer than this is in the truth params (the oracle)
 
 #: defects outside the catalogue: a sensor scale nonlinearity; an actuation gain that
 #: fades by 25 % over the record (fatigue)
@@ -127,11 +129,17 @@ def ar1(rng, n, rate, sigma, tau=2.0):
 
 
 def conditions(seed):
-    """Return the record conditions of ``seed`` (each a different share of the seeds)."""
+    """Return the record conditions of ``seed`` (each a different share of the seeds).
+
+    ``not_at_rest``: 30 s at 0.5 W ending ``cool_before`` (s) before the record. The
+    default 30 s of cooling brings the drawn muscles back to within a kelvin of
+    ambient (their thermal time constants are seconds): the motion and the sensor
+    are what is not at rest. A few seconds leave the fibre tens of kelvin warm.
+    """
     return {'rate': RATES[seed % len(RATES)], 'plant': 'rod' if seed % 2 else 'cst',
             'temperature': seed % 4 < 2, 'drift': seed % 3 == 0,
             'nominal_power': seed % 3 == 1, 'noisy_power': seed % 3 == 2,
-            'jitter': seed % 4 == 1, 'not_at_rest': seed % 4 == 3}
+            'jitter': seed % 4 == 1, 'not_at_rest': seed % 4 == 3, 'cool_before': 30.0}
 
 
 def truth_path(directory, seed, take=0):
@@ -161,13 +169,16 @@ def realistic_case(seed, hidden, directory, duration=240.0, mass=None, take=0, *
     cond = {**conditions(seed), **overrides}
     start, truth, _, _ = draw_muscle(rng)
     rate = cond['rate']
-    pre = 60.0 if cond['not_at_rest'] else 0.0
+    pre = 30.0 + cond['cool_before'] if cond['not_at_rest'] else 0.0
     time_s = np.arange(int(round((duration + pre) * rate)) + 1) / rate - pre
     power = random_power_profile(rng, time_s + pre)
     if other is not None:  # the first take's draws are made all the same: same muscle
         power = random_power_profile(other, time_s + pre)
-    if pre:  # heat 30-60 s before the record, then let it cool: it starts warm
-        power[time_s < 0.0] = np.where(time_s[time_s < 0.0] < -30.0, 0.5, 0.0)
+    if pre:  # heat 30 s, then let it cool for cond['cool_before'] s before the record
+        cool = cond['cool_before']
+        before = time_s < 0.0
+        power[before] = np.where((time_s[before] < -cool) & (time_s[before] >= -cool - 30.0),
+                                 0.5, 0.0)
         power[(time_s >= 0.0) & (time_s < 3.0)] = 0.0
     drawn = rng.uniform(0.015, 0.04)
     mass = drawn if mass is None else mass
@@ -191,6 +202,10 @@ def realistic_case(seed, hidden, directory, duration=240.0, mass=None, take=0, *
     keep = time_s >= 0.0
     time_s, power, load, x = time_s[keep], power[keep], load[keep], x[keep]
     temperature = sim.temperature[keep]
+    if pre:  # the truth of the record as logged starts where the plant was at t = 0
+        excess = float(temperature[0]) - true_ambient(truth.thermal, truth.effects)
+        if excess > WARM_TRUTH_K:
+            truth = truth.with_values(**{'thermal.initial_temperature_rise': excess})
     n = time_s.size
     if 'sensor_nonlinearity' in hidden:
         x = x + 8.0 * (x - x[0]) ** 2  # 8 /m: 0.8 mm read extra at 10 mm
