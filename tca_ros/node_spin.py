@@ -26,7 +26,7 @@ class StopSafeExecutor(SingleThreadedExecutor):
 
 
 def new_executor(context):
-    """A StopSafeExecutor on ``context``, or None if a stop shut the context meanwhile."""
+    """Return a StopSafeExecutor on ``context``, or None if a stop shut the context meanwhile."""
     try:
         return StopSafeExecutor(context=context)
     except Exception:  # noqa: B902  rclpy fails with TypeError or RCLError here

@@ -120,8 +120,8 @@ def test_the_logged_temperature_decides_whether_the_default_fit_takes_the_excess
     cal = calibrate([warm], _params(), model='cst', check=False)
     assert 'initial_temperature_rise' in cal.report.values
     assert any('begins warm' in n for n in cal.notes)
-    assert 'initial_temperature_rise' not in calibrate([rest], _params(), model='cst',
-                                                        check=False).report.values
+    at_rest = calibrate([rest], _params(), model='cst', check=False)
+    assert 'initial_temperature_rise' not in at_rest.report.values
 
 
 def test_one_excess_for_several_records_is_refused_in_one_line():
