@@ -129,3 +129,13 @@ def test_one_excess_for_several_records_is_refused_in_one_line():
     with pytest.raises(CalibrationError, match="'initial_temperature_rise': one value"):
         calibrate([record, record], _params(), model='cst', check=False,
                   fit=['steady_rise', 'initial_temperature_rise'])
+
+
+def test_a_warm_record_among_several_is_said_to_be_taken_at_rest():
+    warm, _ = _record_cut_from_a_longer_run()
+    rest, _ = _record_cut_from_a_longer_run(pre_heat_s=0.0, cool_s=0.0)
+    rest = dataclasses.replace(rest, source='rest.csv')
+    cal = calibrate([rest, warm], _params(), model='cst', check=False,
+                    fit=['steady_rise', 'actuation_gain'])
+    said = [n for n in cal.notes if 'the logged temperature falls' in n]
+    assert len(said) == 1 and said[0].startswith('warm.csv: ')

@@ -277,11 +277,15 @@ def calibrate(records, params, model=None, fit=None, progress=False, max_nfev=40
     priors = calibration_priors(start, nominal, 'resistance' in channels, r0, supply,
                                 damping_bound(start, model))
     names = list(fit) if fit else list(DEFAULT_FIT)
-    if not fit and len(records) == 1 and starts_warm(records[0],
-                                                     start.thermal.ambient_temperature):
+    warm = [r for r in records if starts_warm(r, start.thermal.ambient_temperature)]
+    if not fit and len(records) == 1 and warm:
         names.append('initial_temperature_rise')
         notes.append('the logged temperature falls before any power: the record begins '
                      'warm, thermal.initial_temperature_rise fitted')
+    elif len(records) > 1 and warm:
+        notes.append(f'{warm[0].source or "a record"}: the logged temperature falls before '
+                     'any power, so it begins warm; a calibration over several records takes '
+                     'each at rest (fit it alone to estimate its start)')
     unknown = [n for n in names if n not in DEFAULT_FIT + OPTIONAL_FIT + EFFECT_PARAMETERS]
     if unknown:
         raise CalibrationError(f'--fit {unknown[0]!r}: unknown; allowed: '
