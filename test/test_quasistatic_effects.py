@@ -214,7 +214,7 @@ def test_creep_is_the_kelvin_voigt_step_response(uniform):
 
 
 def test_a_fiber_in_vacuum_settles_where_radiation_carries_the_power():
-    # h = 0 with emissivity > 0 is valid (params._check_thermal): no convective term
+    # h = 0 with emissivity > 0 is valid (params_checks._check_thermal): no convective term
     p = _params(**{'thermal.convection_coefficient': 0.0, 'effects.emissivity': 0.9})
     t = np.arange(0.0, 300.0, 1.0)  # 20 radiative time constants (~13 s at 130 degC)
     heated = np.full_like(t, 0.3)  # W
