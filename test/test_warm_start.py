@@ -111,6 +111,10 @@ def test_the_logged_temperature_decides_whether_the_default_fit_takes_the_excess
     rest, _ = _record_cut_from_a_longer_run(pre_heat_s=0.0, cool_s=0.0)
     ambient = _params().thermal.ambient_temperature
     assert starts_warm(warm, ambient) and not starts_warm(rest, ambient)
+    # a power sensor reads noise at rest: that is no heating
+    noise = np.abs(np.random.default_rng(5).normal(0.0, 0.01 * warm.power.max(),
+                                                   warm.power.size))
+    assert starts_warm(dataclasses.replace(warm, power=warm.power + noise), ambient)
     # a displacement alone cannot tell a cooling coil from a creeping one: at rest
     blind = dataclasses.replace(warm, temperature=None)
     assert not starts_warm(blind, ambient)

@@ -59,6 +59,7 @@ WARM_START_WINDOW_S = 1.0  # s of power off at the start needed to see a warm st
 WARM_START_SAMPLES = 8  # samples of power off at the start needed likewise
 WARM_START_SIGMAS = 4.0  # the fall over them that is no noise, in its standard errors
 WARM_START_MIN_FALL_K = 0.3  # K, and at least this fall (a thermocouple's resolution)
+POWER_OFF_SHARE = 0.05  # a logged power below this share of its peak is taken as off
 
 
 class CalibrationError(ValueError):
@@ -73,9 +74,10 @@ def is_nominal_power(records):
 def starts_warm(record, ambient):
     """Return True when the record's logged temperature shows it beginning warm.
 
-    Before the first power, a muscle at rest holds its temperature; one that has not
-    cooled from an earlier heating still falls. Warm: the record logs temperature, the
-    power stays off for at least WARM_START_WINDOW_S and WARM_START_SAMPLES samples,
+    Before the first power (a logged power above POWER_OFF_SHARE of its peak), a
+    muscle at rest holds its temperature; one that has not cooled from an earlier
+    heating still falls. Warm: the record logs temperature, the power stays off for
+    at least WARM_START_WINDOW_S and WARM_START_SAMPLES samples,
     the first quarter of that span is above ``ambient`` (degC) and its median
     temperature exceeds the last quarter's by WARM_START_SIGMAS noise sigmas and
     WARM_START_MIN_FALL_K. Without a temperature channel the start is taken at rest:
@@ -85,7 +87,8 @@ def starts_warm(record, ambient):
     from tca_ros.diagnosis.residuals import noise_sigma
     if record.temperature is None:
         return False
-    on = np.flatnonzero(record.power > 0.0)
+    # a logged power reads noise at rest: off is below POWER_OFF_SHARE of its peak
+    on = np.flatnonzero(record.power > POWER_OFF_SHARE * max(float(np.max(record.power)), 0.0))
     end = int(on[0]) if on.size else record.time.size
     if end < WARM_START_SAMPLES or record.time[end - 1] - record.time[0] < WARM_START_WINDOW_S:
         return False
