@@ -77,12 +77,11 @@ def starts_warm(record, ambient):
     Before the first power (a logged power above POWER_OFF_SHARE of its peak), a
     muscle at rest holds its temperature; one that has not cooled from an earlier
     heating still falls. Warm: the record logs temperature, the power stays off for
-    at least WARM_START_WINDOW_S and WARM_START_SAMPLES samples,
-    the first quarter of that span is above ``ambient`` (degC) and its median
-    temperature exceeds the last quarter's by WARM_START_SIGMAS noise sigmas and
-    WARM_START_MIN_FALL_K. Without a temperature channel the start is taken at rest:
-    a creeping coil stretches there as a cooling one does (docs/diagnosis.md
-    section 19).
+    at least WARM_START_WINDOW_S and WARM_START_SAMPLES samples, the first quarter of
+    that span is above ``ambient`` (degC) and its median temperature exceeds the last
+    quarter's by WARM_START_SIGMAS standard errors and WARM_START_MIN_FALL_K. Without
+    a temperature channel the start is taken at rest: a creeping coil stretches there
+    as a cooling one does (docs/diagnosis.md section 19).
     """
     from tca_ros.diagnosis.residuals import noise_sigma
     if record.temperature is None:
