@@ -21,7 +21,10 @@ muscle, profile and noise): only where the twin is adequate can the verdict be
 the defect's. The same muscles are diagnosed again with two loads (15 and 40 g)
 together: a static sensor nonlinearity that one load hides in the calibration
 shows there (docs/diagnosis.md section 18).
-With ``--real DIR`` the shared real records are diagnosed together too.
+With ``--real DIR`` the shared real records are diagnosed too: each described as the
+shared README's muscle with the mandrel diameter and the power group its file name gives
+('0.8mm', '2W'; the source's loaded lengths for the 0.8 mm groups, 140 mm otherwise),
+each alone and then each mandrel-and-power group together.
 
     python bench/bench_diagnosis_real.py [--null 12] [--per-effect 3] [--pairs 8]
                                           [--outside 12] [--jobs 2] [--real DIR]
@@ -36,6 +39,7 @@ import glob
 import json
 import multiprocessing
 import os
+import re
 import sys
 import tempfile
 import time
@@ -301,27 +305,49 @@ def print_table(rows, wall, jobs):
                   f'{np.median(secs):.1f} s, max {max(secs):.1f} s per record')
 
 
-#: loaded length (m) of the muscle of each power group, as the source's scripts use them
-#: (the shared README: several muscles were made, which run used which is not recorded)
+#: loaded length (m) of the 0.8 mm mandrel's muscle of each power group, as the source's
+#: scripts use them (the shared README: several muscles were made, which run used which is
+#: not recorded); any other record is described at DEFAULT_LENGTH
 GROUP_LENGTHS = {'1W': 0.1371, '2W': 0.1358, '3W': 0.1497}
+DEFAULT_LENGTH = 0.14  # m, the README's 135-150 mm
+SALP_MANDREL = 0.8e-3  # m, the mandrel of the shared records (and the default)
+POWER_GROUP = re.compile(r'_(\d+(?:\.\d+)?W)_')
+MANDREL_MM = re.compile(r'(\d+(?:\.\d+)?)\s*mm')
 
 
 def _group(path):
-    """Return the power group ('1W', ...) in a salp record's file name, or ''."""
-    return next((g for g in GROUP_LENGTHS if f'_{g}_' in os.path.basename(path)), '')
+    """Return the power group ('1W', '1.5W', ...) in a salp record's file name, or ''."""
+    found = POWER_GROUP.search(os.path.basename(path))
+    return found.group(1) if found else ''
+
+
+def _mandrel(path):
+    """Return the mandrel diameter (m) a salp record's file name gives ('0.8mm'), else 0.8 mm."""
+    found = MANDREL_MM.search(os.path.basename(path))
+    value = float(found.group(1)) * 1e-3 if found else SALP_MANDREL
+    return value if 0.1e-3 <= value <= 5e-3 else SALP_MANDREL
+
+
+def _length(path):
+    """Return the loaded length (m) the description of a salp record takes."""
+    if abs(_mandrel(path) - SALP_MANDREL) < 1e-9:
+        return GROUP_LENGTHS.get(_group(path), DEFAULT_LENGTH)
+    return DEFAULT_LENGTH
 
 
 def _diagnose_real(args, keep=False):
     """Diagnose one real record (or a list of one muscle's); return a dict row.
 
+    ``args``: (paths, loaded length (m), work directory[, mandrel diameter (m)]).
     ``keep``: return (row, DiagnosisResult) instead.
     """
     from bench_real import SALP_MUSCLE
     from tca_ros.model.muscle import describe_muscle
-    paths, length, work = args
-    start_path = os.path.join(work, f'salp_{length * 1e4:.0f}.yaml')
+    paths, length, work = args[:3]
+    mandrel = args[3] if len(args) > 3 else SALP_MANDREL
+    start_path = os.path.join(work, f'salp_{mandrel * 1e5:.0f}_{length * 1e4:.0f}.yaml')
     if not os.path.exists(start_path):
-        spec = dataclasses.replace(SALP_MUSCLE, loaded_length=length)
+        spec = dataclasses.replace(SALP_MUSCLE, loaded_length=length, mandrel_diameter=mandrel)
         dump_params(describe_muscle(spec).params, start_path)
     t0 = time.process_time()
     try:
@@ -360,11 +386,15 @@ def real_records(directory, jobs=2):
     if not paths:
         print(f'real records: none in {directory}; skipped')
         return
-    length = dict(GROUP_LENGTHS)
+    # one muscle per mandrel and power group (the source's scripts: one length per group)
+    keys = sorted({(_mandrel(p), _group(p)) for p in paths if _group(p)})
     with tempfile.TemporaryDirectory() as work:
-        each = [([p], length.get(_group(p), 0.14), work) for p in paths]
-        groups = [([p for p in paths if _group(p) == g], length[g], work)
-                  for g in GROUP_LENGTHS if any(_group(p) == g for p in paths)]
+        each = [([p], _length(p), work, _mandrel(p)) for p in paths]
+        groups = []
+        for key in keys:
+            members = [p for p in paths if (_mandrel(p), _group(p)) == key]
+            if len(members) > 1:
+                groups.append((members, _length(members[0]), work, key[0]))
         rows, wall = timed_pool_map(_diagnose_real, each + groups, jobs)
     print(f'\nreal records ({len(paths)} from {directory}; rod model, calibrated first; '
           f'{wall:.0f} s wall, {jobs} jobs): each alone, then each power group together')

@@ -28,7 +28,7 @@ import sys
 import tempfile
 import time
 
-from bench_diagnosis_real import _group, GROUP_LENGTHS, REAL_DIR, timed_pool_map
+from bench_diagnosis_real import _length, _mandrel, REAL_DIR, timed_pool_map
 from bench_real import SALP_MUSCLE
 import numpy as np
 
@@ -76,7 +76,8 @@ def run_case(args):
     rec_path = os.path.join(work, f'{tag}.csv')
     write_csv_record(record, rec_path)
     start_path = os.path.join(work, f'{tag}.yaml')
-    spec = dataclasses.replace(SALP_MUSCLE, loaded_length=GROUP_LENGTHS[_group(path)])
+    spec = dataclasses.replace(SALP_MUSCLE, loaded_length=_length(path),
+                               mandrel_diameter=_mandrel(path))
     dump_params(describe_muscle(spec).params, start_path)
     t0 = time.process_time()
     row = {'record': name, 'variant': variant}

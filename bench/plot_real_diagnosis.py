@@ -15,7 +15,7 @@ import argparse
 import os
 import sys
 
-from bench_diagnosis_real import _diagnose_real, _group, GROUP_LENGTHS, REAL_DIR
+from bench_diagnosis_real import _diagnose_real, _length, _mandrel, REAL_DIR
 import matplotlib
 
 matplotlib.use('Agg')
@@ -40,7 +40,7 @@ def main(argv=None):
     fig, axes = plt.subplots(len(paths), 1, figsize=(9, 3.2 * len(paths)), squeeze=False)
     with tempfile.TemporaryDirectory() as work:
         for ax, path in zip(axes[:, 0], paths):
-            row, result = _diagnose_real(([path], GROUP_LENGTHS.get(_group(path), 0.14), work),
+            row, result = _diagnose_real(([path], _length(path), work, _mandrel(path)),
                                          keep=True)
             if result is None:
                 print(f'{os.path.basename(path)}: {row["verdict"]}')
