@@ -11,7 +11,8 @@ import time as wallclock
 from tca_ros.diagnosis.candidates import ABSORBED, absorbed_candidates, parameters_at_bounds
 from tca_ros.diagnosis.data import DataError, record_config
 from tca_ros.diagnosis.holdout import AUTO, choose_validation, DEFAULT_VALIDATION
-from tca_ros.diagnosis.joint import beats_nominal, joint_extension, JOINT_NFEV, joint_notes
+from tca_ros.diagnosis.joint import beats_nominal, family_rival_notes, joint_extension, \
+    JOINT_NFEV, joint_notes
 from tca_ros.diagnosis.nominal import calibrate_training_part, candidates_of, DiagnosisError, \
     nominal_with_fallback, read_any, record_nominal
 from tca_ros.diagnosis.progress import Progress
@@ -237,13 +238,16 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
         return (rmse, stats) + decide_verdict(effects, nominal_stats, stats, whole_stats)
 
     extended_rmse, extended_stats, verdict, explanation = judged(effects, values, extendeds)
+
+    def calibrate_with(fit, start_values, like):
+        """Calibrate ``fit`` on the training part (joint.py's calibrations)."""
+        return calibrate_training_part(records, start_params, model, fraction, supply,
+                                       False, validation, fit=fit, max_nfev=JOINT_NFEV,
+                                       start_values=start_values, like=like)
+    joint = None
     if verdict == 'unexplained' and cal is not None and rounds:
         # the search's nominal refit is narrow: calibrate its first round's best
         # candidates together with the nominal parameters (joint.py)
-        def calibrate_with(fit, start_values, like):
-            return calibrate_training_part(records, start_params, model, fraction, supply,
-                                           False, validation, fit=fit, max_nfev=JOINT_NFEV,
-                                           start_values=start_values, like=like)
         joint, rivals = joint_extension(calibrate_with, problems, nominals, cal, candidates,
                                         rounds, nominal_rmse)
         if joint is not None:
@@ -259,6 +263,10 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
                        + ' sits at the end of its physical range: the data ask for more '
                        'than the effect can be, so it stands in for a cause that is not in '
                        'the catalogue and is not named')
+    if verdict == 'explained' and joint is None and len(effects) == 1 and cal is not None:
+        # one effect of a family the records may not tell apart: say which rivals fit too
+        notes.extend(family_rival_notes(calibrate_with, problems, nominals, cal, candidates,
+                                        effects[0], nominal_rmse))
     if verdict in ('adequate', 'explained') and holds_one_load(records):
         notes.append(ONE_LOAD_NOTE)
     helpful = []

@@ -233,6 +233,38 @@ def joint_extension(calibrate_with, problems, nominals, cal, candidates, rounds,
     return joint, rivals
 
 
+def family_rival_notes(calibrate_with, problems, nominals, cal, candidates, found,
+                       nominal_rmse):
+    """Return notes on the rivals of one effect the search named that also explain the data.
+
+    The members of an effect's family (FAMILIES: the lags, the play operators, the
+    heat-loss shapes) can explain one record about equally: without a temperature
+    channel a sensor lag, a second thermal lag and a dead time all delay the stroke.
+    The named effect and each rival are calibrated jointly with the nominal
+    parameters (joint_calibrations); the rivals that pass best_joint's rule are
+    listed with both penalised held-out gains, so the report says what the records
+    do not tell apart. The name and the verdict stay the search's.
+    """
+    by_name = {c.name: c for c in candidates
+               if c.starts and all(s.name.startswith('effects.') for s in c.spaces)}
+    family = next((f for f in FAMILIES if found in f), ())
+    rivals = [by_name[n] for n in family if n != found and n in by_name]
+    if not rivals or found not in by_name:
+        return []
+    fits = joint_calibrations(calibrate_with, problems, nominals, cal, candidates,
+                              [(by_name[found],)] + [(c,) for c in rivals])
+    own = next((f for f in fits if f.name == found), None)
+    passing = [f for f in fits if f.name != found and f.explained and not f.pinned
+               and f.criterion > 0.0 and lowers_heldout_rms(problems, f.sims, nominal_rmse)]
+    if not passing:
+        return []
+    against = f' against {own.criterion:.1f} for {found}' if own is not None else ''
+    return [f'{found} is named by the search; also explained, calibrated jointly: '
+            + ', '.join(f'{f.name} (penalised held-out gain {f.criterion:.1f})'
+                        for f in sorted(passing, key=lambda f: -f.criterion))
+            + f'{against}: these records tell them apart only by that gain']
+
+
 def joint_notes(joint, rivals, searched):
     """Return the report's notes on a JointFit taken over the search's ``searched`` effects."""
     left = f' with {" + ".join(searched)}' if searched else ''

@@ -1,0 +1,59 @@
+"""family_rival_notes: an effect the search names, and the family rivals that fit as well."""
+from types import SimpleNamespace
+
+from tca_ros.diagnosis import joint
+from tca_ros.diagnosis.candidates import Candidate
+from tca_ros.diagnosis.joint import family_rival_notes, JointFit
+
+
+def _candidate(name, dotted):
+    return Candidate(name, (SimpleNamespace(name=dotted),), ((1.0,),))
+
+
+CANDIDATES = [_candidate('second_thermal_lag', 'effects.second_thermal_lag'),
+              _candidate('sensor_lag', 'effects.sensor_lag'),
+              _candidate('dead_time', 'effects.dead_time'),
+              _candidate('creep', 'effects.creep_compliance')]
+
+
+def _fit(name, criterion, explained=True, pinned=()):
+    return JointFit(name=name, values={}, n_params=1, sims=[name], criterion=criterion,
+                    explained=explained, pinned=list(pinned))
+
+
+def _notes(monkeypatch, fits, found='second_thermal_lag', rms_ok=lambda sims: True):
+    asked = []
+
+    def fake_calibrations(calibrate_with, problems, nominals, cal, candidates, groups):
+        asked.extend(c.name for group in groups for c in group)
+        return fits
+
+    monkeypatch.setattr(joint, 'joint_calibrations', fake_calibrations)
+    monkeypatch.setattr(joint, 'lowers_heldout_rms',
+                        lambda problems, sims, rmse: rms_ok(sims))
+    return family_rival_notes(None, [], [], None, CANDIDATES, found, {}), asked
+
+
+def test_a_rival_that_explains_as_well_is_said_beside_the_named_effect(monkeypatch):
+    notes, asked = _notes(monkeypatch, [_fit('second_thermal_lag', 14.0),
+                                        _fit('sensor_lag', 12.7), _fit('dead_time', 3.0)])
+    assert asked == ['second_thermal_lag', 'sensor_lag', 'dead_time']  # the lag family only
+    assert len(notes) == 1
+    assert notes[0].startswith('second_thermal_lag is named by the search; also explained')
+    assert 'sensor_lag (penalised held-out gain 12.7), dead_time (penalised held-out gain '\
+           '3.0) against 14.0 for second_thermal_lag' in notes[0]
+
+
+def test_rivals_at_a_bound_structured_worse_or_no_better_are_not_said(monkeypatch):
+    fits = [_fit('second_thermal_lag', 14.0),
+            _fit('sensor_lag', 12.7, pinned=[('effects.sensor_lag', 3.0, 3.0)]),
+            _fit('dead_time', 9.0, explained=False)]
+    assert _notes(monkeypatch, fits)[0] == []
+    fits = [_fit('second_thermal_lag', 14.0), _fit('sensor_lag', -1.0),
+            _fit('dead_time', 5.0)]
+    assert _notes(monkeypatch, fits, rms_ok=lambda sims: sims != ['dead_time'])[0] == []
+
+
+def test_an_effect_without_a_family_calibrates_nothing(monkeypatch):
+    notes, asked = _notes(monkeypatch, [], found='creep')
+    assert notes == [] and asked == []
