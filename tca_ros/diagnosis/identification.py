@@ -156,21 +156,12 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
     DiagnosisError
         The nominal simulation fails on this record (exit 1).
     """
-    from tca_ros.model.params import load_params
     from tca_ros.diagnosis import fitting
-
     from tca_ros.model.static_maps import clear_map_cache
     start = wallclock.perf_counter()
     clear_map_cache()  # identical inputs give identical numbers (the maps grow on demand)
-    paths = ([data_path] if isinstance(data_path, (str, os.PathLike))
-             else list(data_path))
-    records = [read_any(p, config) for p in paths]
+    paths, records, config, model, base = _read(data_path, config, calibrated, model)
     record = records[0]
-    config = config or record_config(record)
-    nominal_source = calibrated or config
-    model = model or load_params(nominal_source).model
-    # the extended params file must name the model its effects were fitted with
-    base = load_params(nominal_source, model=model)
     params_of = start_params = [record_nominal(base, r) for r in records]
     fraction = train_fraction or fitting.TRAIN_FRACTION
     validation = choose_validation(records, fraction, validation)
@@ -200,73 +191,23 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
     if absorbed:
         notes.append(f'not searched: {", ".join(absorbed)} (the calibrated '
                      f'{", ".join(ABSORBED[a] for a in absorbed)} is the same parameter)')
-    untestable = [c.name for c in candidates if not c.starts]
-    nominal_stats = channel_stats(problems, nominals)
-    channels = problem.channels
-    nominal_rmse = pooled_heldout_rmse(problems, nominals, channels)
-    effects, values, rounds = [], dict(start_values), []
+    nominal = _Nominal(problems, problem, start_values, nominals, cal, candidates)
     try:
-        # an effect may show in the training part only (creep settled before the split)
-        whole_stats = channel_stats(problems, nominals, whole=True)
-        if needs_explaining(nominal_stats, whole_stats):
-            effects, values, rounds = search_effects(problem, candidates)
-        else:  # what the nominal model leaves is noise by the verdict's test: no search
-            notes.append(NOTHING_TO_EXPLAIN)
-        values = values if effects else dict(start_values)  # not the round-one polish
-        extendeds = [p.simulate_full(values) for p in problems] if effects else nominals
-        added = len([k for k in values if k not in start_values])
-        if effects and not beats_nominal(problems, nominals, extendeds, added,
-                                         nominal_rmse):
-            # each effect was accepted against the round's base (the nominal with its
-            # calibration refitted); the whole extension must beat the calibrated
-            # nominal itself by the search's own rule, or it is no improvement to report
-            notes.append(f'{" + ".join(effects)} fitted, but not kept: the extended model '
-                         'does not predict the held-out part better than the calibrated '
-                         'nominal model (penalised held-out gain <= 0, or held-out RMS gain '
-                         f'below {MIN_GAIN_PERCENT:g} %)')
-            effects, values, extendeds = [], dict(start_values), nominals
+        effects, values, extendeds, rounds = _search(nominal, notes)
     except (ValueError, ArithmeticError) as exc:  # a candidate the stepper cannot run
         raise DiagnosisError(f'{data_path}: the effect search failed with model={model} '
                              f'({str(exc).splitlines()[0]})') from None
     finally:
         bar.close()
 
-    def judged(effects, values, extendeds):
-        """Return (held-out RMSE, residual stats, verdict, explanation) of an extension."""
-        rmse = pooled_heldout_rmse(problems, extendeds, channels)
-        stats = channel_stats(problems, extendeds, [p.parameters(values) for p in problems])
-        return (rmse, stats) + decide_verdict(effects, nominal_stats, stats, whole_stats)
-
-    extended_rmse, extended_stats, verdict, explanation = judged(effects, values, extendeds)
-
     def calibrate_with(fit, start_values, like):
         """Calibrate ``fit`` on the training part (joint.py's calibrations)."""
         return calibrate_training_part(records, start_params, model, fraction, supply,
                                        False, validation, fit=fit, max_nfev=JOINT_NFEV,
                                        start_values=start_values, like=like)
-    joint = None
-    if verdict == 'unexplained' and cal is not None and rounds:
-        # the search's nominal refit is narrow: calibrate its first round's best
-        # candidates together with the nominal parameters (joint.py)
-        joint, rivals = joint_extension(calibrate_with, problems, nominals, cal, candidates,
-                                        rounds, nominal_rmse)
-        if joint is not None:
-            notes.extend(joint_notes(joint, rivals, effects))
-            effects, values, extendeds = list(joint.effects), joint.values, joint.sims
-            extended_rmse, extended_stats, verdict, explanation = judged(effects, values,
-                                                                         extendeds)
-    pinned = parameters_at_bounds(effects, values, candidates)
-    if verdict == 'explained' and pinned:
-        verdict = 'unexplained'
-        explanation = ('the effects found leave no structure, but '
-                       + ', '.join(f'{n} = {v:.4g} {SPECS[n].unit}' for n, v, _ in pinned)
-                       + ' sits at the end of its physical range: the data ask for more '
-                       'than the effect can be, so it stands in for a cause that is not in '
-                       'the catalogue and is not named')
-    if verdict == 'explained' and joint is None and len(effects) == 1 and cal is not None:
-        # one effect of a family the records may not tell apart: say which rivals fit too
-        notes.extend(family_rival_notes(calibrate_with, problems, nominals, cal, candidates,
-                                        effects[0], nominal_rmse))
+    effects, values, extendeds, judgement = _second_opinions(
+        nominal, calibrate_with, effects, values, extendeds, rounds, notes)
+    extended_rmse, extended_stats, verdict, explanation = judgement
     if verdict in ('adequate', 'explained') and holds_one_load(records):
         notes.append(ONE_LOAD_NOTE)
     helpful = []
@@ -276,17 +217,122 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
     result = DiagnosisResult(
         record=record, config=config, model=model, params=params,
         extended_params=problem.parameters(values), effects=effects, helpful=helpful,
-        calibration=cal, notes=notes, records=[str(p) for p in paths],
+        calibration=nominal.cal, notes=notes, records=[str(p) for p in paths],
         extended_values=values, rounds=rounds, nominal=nominals[0], extended=extendeds[0],
-        nominal_rmse=nominal_rmse, extended_rmse=extended_rmse,
-        nominal_stats=nominal_stats, extended_stats=extended_stats,
+        nominal_rmse=nominal.rmse, extended_rmse=extended_rmse,
+        nominal_stats=nominal.stats, extended_stats=extended_stats,
         sigma=dict(problems[0].sigma),
         heldout_spans=[(float(record.time[a]), float(record.time[b - 1]))
                        for a, b in problems[0].full_runs], validation=validation,
         verdict=verdict, explanation=explanation, elapsed=0.0,
-        n_simulations=bar.count, untestable=untestable)
+        n_simulations=bar.count, untestable=[c.name for c in candidates if not c.starts])
     result.elapsed = wallclock.perf_counter() - start
     if report_dir:
         from tca_ros.diagnosis.report import write_report
         write_report(result, report_dir)
     return result
+
+
+def _read(data_path, config, calibrated, model):
+    """Return (paths, records, config, model, base params) of a diagnosis's inputs.
+
+    The base params are the calibrated file's or the config's, with the model the
+    fits run (the extended params file must name the model its effects were fitted
+    with).
+    """
+    from tca_ros.model.params import load_params
+    paths = ([data_path] if isinstance(data_path, (str, os.PathLike))
+             else list(data_path))
+    records = [read_any(p, config) for p in paths]
+    config = config or record_config(records[0])
+    nominal_source = calibrated or config
+    model = model or load_params(nominal_source).model
+    return paths, records, config, model, load_params(nominal_source, model=model)
+
+
+@dataclass
+class _Nominal:
+    """The calibrated nominal model of a diagnosis: its problems, simulations and scores."""
+
+    problems: list  # FitProblem per record
+    problem: object  # the FitProblem, or a FitProblemSet of several records
+    start_values: dict  # the search's start (the recalibration's values)
+    sims: list  # SimulationResult per record at the record rate
+    cal: object  # Calibration, or None
+    candidates: list  # the catalogue candidates searched
+
+    def __post_init__(self):  # noqa: D105 -- the held-out and whole-record scores
+        self.stats = channel_stats(self.problems, self.sims)
+        # an effect may show in the training part only (creep settled before the split)
+        self.whole_stats = channel_stats(self.problems, self.sims, whole=True)
+        self.rmse = pooled_heldout_rmse(self.problems, self.sims, self.problem.channels)
+
+    def judged(self, effects, values, extendeds):
+        """Return (held-out RMSE, residual stats, verdict, explanation) of an extension."""
+        rmse = pooled_heldout_rmse(self.problems, extendeds, self.problem.channels)
+        stats = channel_stats(self.problems, extendeds,
+                              [p.parameters(values) for p in self.problems])
+        return (rmse, stats) + decide_verdict(effects, self.stats, stats, self.whole_stats)
+
+
+def _search(nominal, notes):
+    """Return (effects, values, extended sims, rounds) of the greedy effect search.
+
+    No search when the nominal model leaves noise by the verdict's test; an
+    extension that does not beat the calibrated nominal by the search's own rule
+    is dropped with a note.
+    """
+    problems, start_values = nominal.problems, nominal.start_values
+    effects, values, rounds = [], dict(start_values), []
+    if needs_explaining(nominal.stats, nominal.whole_stats):
+        effects, values, rounds = search_effects(nominal.problem, nominal.candidates)
+    else:  # what the nominal model leaves is noise by the verdict's test: no search
+        notes.append(NOTHING_TO_EXPLAIN)
+    values = values if effects else dict(start_values)  # not the round-one polish
+    extendeds = [p.simulate_full(values) for p in problems] if effects else nominal.sims
+    added = len([k for k in values if k not in start_values])
+    if effects and not beats_nominal(problems, nominal.sims, extendeds, added, nominal.rmse):
+        # each effect was accepted against the round's base (the nominal with its
+        # calibration refitted); the whole extension must beat the calibrated
+        # nominal itself by the search's own rule, or it is no improvement to report
+        notes.append(f'{" + ".join(effects)} fitted, but not kept: the extended model '
+                     'does not predict the held-out part better than the calibrated '
+                     'nominal model (penalised held-out gain <= 0, or held-out RMS gain '
+                     f'below {MIN_GAIN_PERCENT:g} %)')
+        effects, values, extendeds = [], dict(start_values), nominal.sims
+    return effects, values, extendeds, rounds
+
+
+def _second_opinions(nominal, calibrate_with, effects, values, extendeds, rounds, notes):
+    """Return (effects, values, extended sims, judgement) after the search's checks.
+
+    ``judgement`` is Nominal.judged's (RMSE, stats, verdict, explanation). A record
+    the search leaves unexplained gets the joint stage (joint.py); an explanation
+    with a parameter at the end of its range is not one; a single effect of a
+    family gets its rivals said (joint.family_rival_notes).
+    """
+    judgement = nominal.judged(effects, values, extendeds)
+    cal, joint = nominal.cal, None
+    if judgement[2] == 'unexplained' and cal is not None and rounds:
+        # the search's nominal refit is narrow: calibrate its first round's best
+        # candidates together with the nominal parameters (joint.py)
+        joint, rivals = joint_extension(calibrate_with, nominal.problems, nominal.sims, cal,
+                                        nominal.candidates, rounds, nominal.rmse)
+        if joint is not None:
+            notes.extend(joint_notes(joint, rivals, effects))
+            effects, values, extendeds = list(joint.effects), joint.values, joint.sims
+            judgement = nominal.judged(effects, values, extendeds)
+    rmse, stats, verdict, explanation = judgement
+    pinned = parameters_at_bounds(effects, values, nominal.candidates)
+    if verdict == 'explained' and pinned:
+        verdict = 'unexplained'
+        explanation = ('the effects found leave no structure, but '
+                       + ', '.join(f'{n} = {v:.4g} {SPECS[n].unit}' for n, v, _ in pinned)
+                       + ' sits at the end of its physical range: the data ask for more '
+                       'than the effect can be, so it stands in for a cause that is not in '
+                       'the catalogue and is not named')
+    if verdict == 'explained' and joint is None and len(effects) == 1 and cal is not None:
+        # one effect of a family the records may not tell apart: say which rivals fit too
+        notes.extend(family_rival_notes(calibrate_with, nominal.problems, nominal.sims, cal,
+                                        nominal.candidates, effects[0], nominal.rmse))
+    return effects, values, extendeds, (rmse, stats, verdict, explanation)
