@@ -26,10 +26,13 @@ def add_parser(subparsers):
                          'describe your muscle with `tca_sim config new`')
     sp.add_argument('--out', required=True, help='calibrated params file to write (YAML)')
     sp.add_argument('--force', action='store_true', help='overwrite --out if it exists')
-    sp.add_argument('--fit', default=','.join(DEFAULT_FIT),
-                    help='comma-separated calibration parameters to fit; also friction_force '
-                         'or a catalogue effect parameter (e.g. effects.creep_compliance), '
-                         'fitted with the nominal ones')
+    sp.add_argument('--fit', default='',
+                    help='comma-separated calibration parameters to fit (default: '
+                         + ','.join(DEFAULT_FIT) + ', and initial_temperature_rise on one '
+                         'record whose logged temperature falls before any power); also '
+                         'friction_force, initial_temperature_rise or a catalogue effect '
+                         'parameter (e.g. effects.creep_compliance), fitted with the '
+                         'nominal ones')
     sp.add_argument('--model', choices=MODELS, default=None,
                     help="kinetostatic model (default: the config's model)")
     sp.add_argument('--supply', choices=SUPPLIES, default=None,
@@ -77,7 +80,7 @@ def cmd_calibrate(args, out):
     names = [n.strip() for n in args.fit.split(',') if n.strip()]
     supply = _supply(args, records)
     try:
-        cal = calibrate(records, params, model=args.model, fit=names,
+        cal = calibrate(records, params, model=args.model, fit=names or None,
                         progress=not args.quiet, supply=supply)
     except CalibrationError as exc:
         raise InputError(str(exc)) from None

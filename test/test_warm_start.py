@@ -5,12 +5,16 @@ way a lab restarts its logger while the muscle still cools), not started warm by
 parameter the fit estimates.
 """
 import dataclasses
+import io
 import math
+import re
 
 import numpy as np
 import pytest
 
+from tca_ros.cli import main
 from tca_ros.diagnosis.calibration import calibrate, CalibrationError, starts_warm
+from tca_ros.diagnosis.data import write_csv_record
 from tca_ros.diagnosis.record import Record
 from tca_ros.model.params import load_params, muscle_at_rest
 from tca_ros.model.quasistatic import QuasiStaticUnsupported, simulate_quasistatic
@@ -143,3 +147,19 @@ def test_a_warm_record_among_several_is_said_to_be_taken_at_rest():
                     fit=['steady_rise', 'actuation_gain'])
     said = [n for n in cal.notes if 'the logged temperature falls' in n]
     assert len(said) == 1 and said[0].startswith('warm.csv: ')
+
+
+def test_tca_sim_calibrate_fits_a_warm_start_and_writes_the_muscle_at_rest(tmp_path):
+    record, excess = _record_cut_from_a_longer_run()
+    path, out_path = tmp_path / 'warm.csv', tmp_path / 'cal.yaml'
+    write_csv_record(dataclasses.replace(record, meta={**record.meta, 'tca': 'free_stroke'}),
+                     str(path))
+    out = io.StringIO()
+    assert main(['calibrate', str(path), '--model', 'cst', '--out', str(out_path),
+                 '--quiet'], out=out) == 0
+    printed = out.getvalue()
+    assert 'initial_temperature_rise' in printed and 'the record begins warm' in printed
+    text = out_path.read_text()
+    said = re.search(r'the record began ([0-9.]+) K above ambient', text)
+    assert said and float(said.group(1)) == pytest.approx(excess, rel=0.05)
+    assert load_params(str(out_path)).thermal.initial_temperature_rise == 0.0
