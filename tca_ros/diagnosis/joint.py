@@ -90,6 +90,16 @@ def changed_values(params, reference):
             if isinstance(v, float) and k in old and v != old[k]}
 
 
+def calibratable(candidates):
+    """Return {name: candidate} of the catalogue effects a calibration can fit.
+
+    Those whose parameters are all ``effects.*`` (not coil contact, whose stop is
+    geometry).
+    """
+    return {c.name: c for c in candidates
+            if all(s.name.startswith('effects.') for s in c.spaces)}
+
+
 def joint_order(rounds, candidates, top=JOINT_TOP):
     """Return the candidates to calibrate jointly: the first round's best ``top``.
 
@@ -106,8 +116,7 @@ def joint_order(rounds, candidates, top=JOINT_TOP):
     first = next((r for r in rounds if r is not None), None)
     if first is None:
         return []
-    fittable = {c.name: c for c in candidates
-                if all(s.name.startswith('effects.') for s in c.spaces)}
+    fittable = calibratable(candidates)
     ranked = [fittable[s.name] for s in first.scores if s.name in fittable]
     order = ranked[:top]
     for family in FAMILIES:
@@ -168,8 +177,7 @@ def pair_order(rounds, candidates, fits):
     A record where no single effect helps gets no pair: the nulls and the defects
     outside the catalogue keep `unexplained` with nothing named.
     """
-    by_name = {c.name: c for c in candidates
-               if all(s.name.startswith('effects.') for s in c.spaces)}
+    by_name = calibratable(candidates)
     leads = sorted((f for f in fits if f.criterion > 0.0 and len(f.effects) == 1),
                    key=lambda f: f.criterion, reverse=True)[:PAIR_LEADS]
     rounds = [r for r in rounds if r is not None]
@@ -245,8 +253,7 @@ def family_rival_notes(calibrate_with, problems, nominals, cal, candidates, foun
     listed with both penalised held-out gains, so the report says what the records
     do not tell apart. The name and the verdict stay the search's.
     """
-    by_name = {c.name: c for c in candidates
-               if c.starts and all(s.name.startswith('effects.') for s in c.spaces)}
+    by_name = {n: c for n, c in calibratable(candidates).items() if c.starts}
     family = next((f for f in FAMILIES if found in f), ())
     rivals = [by_name[n] for n in family if n != found and n in by_name]
     if not rivals or found not in by_name:
