@@ -71,23 +71,27 @@ def test_nylon6_monofilament_muscle_is_calibrated_too():
         if est.determined:
             truth = s.values.get(name, 1.0)
             assert abs(est.value - truth) <= MAX_SIGMAS * est.stderr, (name, est, truth)
-    assert cal.report.estimates['thermal_time_constant'].determined
+    assert cal.derived()['thermal_time_constant'].determined
 
 
 def test_time_constant_is_determined_and_close(calibrations):
+    # the records fix C / G of eq. (1) (how fast the stroke follows a step) though
+    # neither C nor G alone
     for s, cal in calibrations:
-        est = cal.report.estimates['thermal_time_constant']
+        est = cal.derived()['thermal_time_constant']
         assert est.determined
         assert est.value == pytest.approx(s.values['thermal_time_constant'], rel=0.05)
 
 
 def test_unidentifiable_parameters_are_flagged_and_stay_near_their_prior(calibrations):
     # nominal on/off power and no temperature: the delivered power is only known in
-    # product with the steady rise, never alone; the prior (spread x/÷ 1.25) holds it
+    # product with the heat loss and the gain, never alone; the MAP shares the product's
+    # shift among them by their prior variances (the truth is 1: the synthetic power is
+    # delivered as logged)
     for _, cal in calibrations:
         est = cal.report.estimates['delivered_power_ratio']
         assert not est.determined
-        assert est.value == pytest.approx(est.prior, rel=0.03)
+        assert abs(est.value - 1.0) <= 2.0 * est.stderr, est
         assert 'not determined' in est.note
 
 
@@ -139,12 +143,14 @@ def test_temperature_channel_separates_actuation_gain_from_heating():
     cal = calibrate(records, s.start, model='cst', check=False)
     est = cal.report.estimates
     assert not est['delivered_power_ratio'].determined
-    rise = est['steady_rise']
-    assert rise.value == pytest.approx(0.8 * s.values['steady_rise'], rel=0.05)
+    per_logged_watt = est['delivered_power_ratio'].value * cal.derived()['steady_rise'].value
+    assert per_logged_watt == pytest.approx(0.8 * s.values['steady_rise'], rel=0.05)
+    assert any({a, b} == {'delivered_power_ratio', 'heat_loss'} and kind == 'ratio'
+               for a, b, kind, _ in cal.combinations()), cal.combinations()
     gain = est['actuation_gain']
     assert gain.determined
     assert abs(gain.value - s.values['actuation_gain']) <= 3.0 * gain.stderr
-    assert gain.stderr < 0.05 * gain.value
+    assert gain.stderr < 0.10 * gain.value  # 5 % before the curvature was fitted too
 
 
 def test_apply_calibration_sets_time_constant_and_rise():
@@ -206,7 +212,8 @@ def test_cli_calibrate_writes_a_params_file_the_simulator_accepts(tmp_path, caps
                    '--model', 'cst', '--quiet', '--report', str(tmp_path / 'rep')])
     text = capsys.readouterr().out
     assert status == 0, text
-    assert 'thermal_time_constant' in text and 'not determined' in text
+    assert 'heat_capacity' in text and 'not determined' in text
+    assert 'plausibility' in text and 'thermal time constant' in text
     calibrated = load_params(str(out))
     g = thermal_conductance(calibrated.fiber, calibrated.thermal)
     assert heat_capacity(calibrated.fiber) / g == pytest.approx(

@@ -49,7 +49,7 @@ def test_null_record_of_a_perturbed_muscle_names_no_effect(tmp_path):
                       report_dir=str(tmp_path / 'rep'))
     print(format_summary(result))
     assert result.calibration is not None
-    assert result.calibration.report.estimates['thermal_time_constant'].determined
+    assert result.calibration.derived()['thermal_time_constant'].determined
     assert result.effects == []
     doc = json.loads((tmp_path / 'rep' / 'diagnosis.json').read_text())
     assert doc['effects'] == [] and doc['model'] == 'cst'

@@ -258,7 +258,7 @@ def test_a_calibration_fits_a_catalogue_effect_parameter_named_in_fit(tmp_path):
     record = Record(time=t, power=power, load=load, displacement=x - x[0],
                     meta={'mass_kg': 0.02})
     start = base.with_values(model='cst')
-    fit = ['thermal_time_constant', 'steady_rise', 'actuation_gain', 'stiffness_scale',
+    fit = ['heat_capacity', 'heat_loss', 'actuation_gain', 'stiffness_scale',
            'damping']
     plain = calibrate([record], start, fit=fit, check=False)
     joint = calibrate([record], start, fit=fit + ['effects.creep_compliance',

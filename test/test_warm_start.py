@@ -89,7 +89,7 @@ def test_the_calibration_finds_the_excess_of_a_record_that_begins_warm():
     record, excess = _record_cut_from_a_longer_run()
     assert excess > 10.0  # the record starts well above ambient
     start = _params()
-    names = ['thermal_time_constant', 'steady_rise', 'actuation_gain']
+    names = ['heat_capacity', 'heat_loss', 'actuation_gain']
     warm = calibrate([record], start, model='cst', fit=names + ['initial_temperature_rise'],
                      check=False)
     cold = calibrate([record], start, model='cst', fit=names, check=False)
@@ -105,8 +105,8 @@ def test_the_calibration_finds_the_excess_of_a_record_that_begins_warm():
 def test_at_rest_the_fitted_excess_stays_near_zero():
     record, excess = _record_cut_from_a_longer_run(pre_heat_s=0.0, cool_s=0.0)
     assert excess == 0.0
-    cal = calibrate([record], _params(), model='cst', fit=['thermal_time_constant',
-                    'steady_rise', 'actuation_gain', 'initial_temperature_rise'], check=False)
+    cal = calibrate([record], _params(), model='cst', fit=['heat_capacity',
+                    'heat_loss', 'actuation_gain', 'initial_temperature_rise'], check=False)
     assert cal.report.values['initial_temperature_rise'] < 1.0
 
 
@@ -136,7 +136,7 @@ def test_one_excess_for_several_records_is_refused_in_one_line():
     record, _ = _record_cut_from_a_longer_run(pre_heat_s=0.0, cool_s=0.0)
     with pytest.raises(CalibrationError, match="'initial_temperature_rise': one value"):
         calibrate([record, record], _params(), model='cst', check=False,
-                  fit=['steady_rise', 'initial_temperature_rise'])
+                  fit=['heat_loss', 'initial_temperature_rise'])
 
 
 def test_a_warm_record_among_several_is_said_to_be_taken_at_rest():
@@ -144,7 +144,7 @@ def test_a_warm_record_among_several_is_said_to_be_taken_at_rest():
     rest, _ = _record_cut_from_a_longer_run(pre_heat_s=0.0, cool_s=0.0)
     rest = dataclasses.replace(rest, source='rest.csv')
     cal = calibrate([rest, warm], _params(), model='cst', check=False,
-                    fit=['steady_rise', 'actuation_gain'])
+                    fit=['heat_loss', 'actuation_gain'])
     said = [n for n in cal.notes if 'the logged temperature falls' in n]
     assert len(said) == 1 and said[0].startswith('warm.csv: ')
 

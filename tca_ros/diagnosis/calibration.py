@@ -9,8 +9,8 @@ is logged must be fitted. They are fitted jointly over every record given
 =========================== ======= ==================================================
 calibration parameter       unit    where it acts (params file entries it sets)
 =========================== ======= ==================================================
-thermal_time_constant       s       m_t c_p / (h c_s A_0) of eq. (1) (fiber.specific_heat)
-steady_rise                 K/W     1 / (h c_s A_0) of eq. (1) (thermal.convection_coeff.)
+heat_capacity               J/K     m_t c_p of eq. (1) (fiber.specific_heat)
+heat_loss                   W/K     h c_s A_0 of eq. (1) (thermal.convection_coefficient)
 actuation_gain              -       fiber.untwist_gain on eq. (4)
 stiffness_scale             -       moduli.youngs_modulus and moduli.shear_modulus
 damping                     N s/m   dynamics.damping, b_t of eq. (18)
@@ -18,6 +18,11 @@ delivered_power_ratio       -       thermal.delivered_power_ratio (nominal power
 resistance                  ohm     electrical.resistance, R0 (with a resistance column)
 resistance_temperature_coef 1/K     electrical.temperature_coefficient
 resistance_strain_coef      -       electrical.strain_coefficient
+expansion_zero_temperature  degC    T_z where dGamma/dT of eq. (2) vanishes: the curvature
+                                    of the stroke-temperature characteristic
+                                    (fiber.gamma_coefficients c1 = -2 c2 T_z)
+actuation_lag               s       lag of the actuating temperature behind eq. (1)'s
+                                    (effects.second_thermal_lag)
 initial_temperature_rise    K       thermal.initial_temperature_rise: the record begins
                                     that much above ambient (one record; when named in
                                     ``fit``, or by default when starts_warm says so)
@@ -27,9 +32,12 @@ effects.<name>              schema  a catalogue effect's parameter (model/effect
                                     calibration, docs/diagnosis.md section 16)
 =========================== ======= ==================================================
 
-The time constant and steady rise are fitted instead of h and c_p because a
-record without temperature determines the time constant by itself while the
-rise is only known in product with the actuation gain and the delivered power.
+Every parameter has a prior centred on the description with a physical spread
+(physical_priors.py); the report sets each value beside its prior and a physical
+reference and marks it implausible past stated limits. A record without
+temperature fixes the thermal time constant C / G by itself and the stroke per
+watt (gain / G) only in product: the report says which combinations the records
+fixed and which values their priors hold.
 
 The parameters' priors, bounds and apply_calibration are in calibration_parameters.py.
 The search simulates with the quasi-static reduction (model/quasistatic.py) and
@@ -59,6 +67,7 @@ WARM_START_WINDOW_S = 1.0  # s of power off at the start needed to see a warm st
 WARM_START_SAMPLES = 8  # samples of power off at the start needed likewise
 WARM_START_SIGMAS = 4.0  # the fall over them that is no noise, in its standard errors
 WARM_START_MIN_FALL_K = 0.3  # K, and at least this fall (a thermocouple's resolution)
+MIN_CURVATURE_LEVELS = 2  # power levels needed to fit the characteristic's curvature
 POWER_OFF_SHARE = 0.05  # a logged power below this share of its peak is taken as off
 
 
@@ -156,6 +165,48 @@ class Calibration:
     notes: list = field(default_factory=list)
     #: per record {channel: full dynamics - quasi-static} the final fit used, or None
     corrections: list = field(default=None, repr=False)
+    #: {name: engine.Parameter} of the fitted parameters (their priors and bounds)
+    priors: dict = field(default_factory=dict, repr=False)
+
+    def plausibility(self):
+        """Return [Plausibility]: each value beside its prior and physical reference."""
+        from tca_ros.diagnosis.physical_priors import plausibility
+        fitted = {k: v.value for k, v in self.report.estimates.items()}
+        return plausibility(self.priors, fitted, self.start)
+
+    def derived(self):
+        """Return {name: engine.Estimate} of eq. (1)'s time constant (s) and steady rise (K/W).
+
+        tau = C / G and rise = 1 / G of the fitted heat capacity C and loss G, with
+        standard errors from their posterior covariance; 'determined' when the
+        relative standard error is below the prior's of either alone (the
+        records, not the priors, fixed it). Empty unless both were fitted.
+        """
+        est = self.report.estimates
+        if 'heat_capacity' not in est or 'heat_loss' not in est:
+            return {}
+        names = list(est)
+        i, j = names.index('heat_capacity'), names.index('heat_loss')
+        c, g = est['heat_capacity'], est['heat_loss']
+        sc, sg = c.stderr / c.value, g.stderr / g.value
+        rho = self.report.correlation[i, j] if self.report.correlation is not None else 0.0
+        rho = float(rho) if np.isfinite(rho) else 0.0
+        s_tau = np.sqrt(max(sc ** 2 + sg ** 2 - 2.0 * rho * sc * sg, 0.0))
+        prior = min(self.priors['heat_capacity'].spread, self.priors['heat_loss'].spread)
+        tau = c.value / g.value
+        return {'thermal_time_constant': engine.Estimate(
+                    'thermal_time_constant', 's', tau, tau * s_tau, c.prior / g.prior,
+                    bool(s_tau < engine.IDENTIFIABLE_RATIO * prior)),
+                'steady_rise': engine.Estimate(
+                    'steady_rise', 'K/W', 1.0 / g.value, sg / g.value, 1.0 / g.prior,
+                    g.determined)}
+
+    def combinations(self):
+        """Return [(a, b, 'product'|'ratio', relative spread)] the records fix jointly only."""
+        from tca_ros.diagnosis.physical_priors import degenerate_combinations
+        names = list(self.report.estimates)
+        return degenerate_combinations(self.report.estimates, self.priors,
+                                       self.report.correlation, names)
 
     def to_json(self):
         """Return a JSON-ready summary."""
@@ -249,12 +300,33 @@ def full_nrmse(params, records, model, supply='power'):
     return [normalised_rmse(r, p['displacement']) for r, p in zip(records, predictions)]
 
 
+def default_fit(records, physics=True):
+    """Return the names a calibration fits by default on ``records``.
+
+    DEFAULT_FIT, and with ``physics`` the actuation lag and, when the records hold
+    at least MIN_CURVATURE_LEVELS power levels, the curvature of the
+    stroke-temperature characteristic (expansion_zero_temperature): one level
+    shows the characteristic's shape only through a transient, and fitted there
+    the curvature predicted other powers worse (docs/calibration.md, "Physics").
+    """
+    names = list(DEFAULT_FIT)
+    if physics:
+        names.append('actuation_lag')
+        levels = {round(float(np.max(r.power)), 2) for r in records}
+        if len(levels) >= MIN_CURVATURE_LEVELS:
+            names.append('expansion_zero_temperature')
+    return names
+
+
 def calibrate(records, params, model=None, fit=None, progress=False, max_nfev=40,
-              check=True, supply='power', masks=None, start_values=None, like=None):
+              check=True, supply='power', masks=None, start_values=None, like=None,
+              physics=True):
     """Calibrate ``params`` (start TcaParams) jointly on ``records``; return a Calibration.
 
-    ``fit``: names to fit (default DEFAULT_FIT, restricted to what the records
-    can inform); ``check``: score start and result with the full dynamics (18);
+    ``fit``: names to fit (default :func:`default_fit`, restricted to what the
+    records can inform); ``physics``: the default adds the actuation lag and the
+    curvature (False: DEFAULT_FIT only, the diagnosis's nominal model, whose
+    catalogue holds the lag as an effect to find); ``check``: score start and result with the full dynamics (18);
     ``masks``: per record a boolean array of the samples fitted (default all;
     the records are simulated whole either way, e.g. a diagnosis's training
     blocks); ``start_values``: {name: value} the fit starts from (default the
@@ -278,7 +350,7 @@ def calibrate(records, params, model=None, fit=None, progress=False, max_nfev=40
     r0 = start.electrical.resistance
     priors = calibration_priors(start, nominal, 'resistance' in channels, r0, supply,
                                 damping_bound(start, model))
-    names = list(fit) if fit else list(DEFAULT_FIT)
+    names = list(fit) if fit else default_fit(records, physics)
     warm = [r for r in records if starts_warm(r, start.thermal.ambient_temperature)]
     if not fit and len(records) == 1 and warm:
         names.append('initial_temperature_rise')
@@ -344,7 +416,8 @@ def calibrate(records, params, model=None, fit=None, progress=False, max_nfev=40
     result = Calibration(start=start, params=calibrated, report=report, model=model,
                          supply=supply,
                          channels=channels, nominal_power=nominal, records=list(records),
-                         notes=notes, corrections=corrections)
+                         notes=notes, corrections=corrections,
+                         priors={p.name: p for p in parameters})
     if check:
         for params, fits, scores in ((start, result.start_fit, result.start_nrmse),
                                      (calibrated, result.fit, result.nrmse)):

@@ -12,18 +12,22 @@ from tca_ros.model.effects import CATALOGUE
 from tca_ros.model.end_motion import critical_damping
 from tca_ros.model.kinetostatics import static_elongation
 from tca_ros.model.static_maps import make_statics
-from tca_ros.model.thermal import heat_capacity, surface_area, thermal_conductance
+from tca_ros.diagnosis.physical_priors import ACTUATION_LAG_PRIOR, prior_spreads
+from tca_ros.model.thermal import fiber_mass, heat_capacity, surface_area, thermal_conductance
 
-DEFAULT_FIT = ('thermal_time_constant', 'steady_rise', 'actuation_gain', 'stiffness_scale',
+DEFAULT_FIT = ('heat_capacity', 'heat_loss', 'actuation_gain', 'stiffness_scale',
                'damping', 'delivered_power_ratio', 'resistance',
                'resistance_temperature_coef', 'resistance_strain_coef')
+#: physics a calibration adds when named in ``fit`` (or by ``--physics``): the curvature of
+#: the stroke-temperature characteristic and an actuation lag (docs/calibration.md)
+PHYSICS_FIT = ('expansion_zero_temperature', 'actuation_lag')
 #: prior standard deviation (K) of a record's initial temperature rise: nearly flat
 #: over the 0-60 K a muscle keeps a minute or so after a heating
 INITIAL_RISE_SPREAD = 30.0
 INITIAL_RISE_MAX = 300.0  # K, the schema's bound of thermal.initial_temperature_rise
 #: fitted when named in ``fit``: friction (a diagnosis effect else); the initial rise also
 #: by default on one record whose logged temperature shows it beginning warm (starts_warm)
-OPTIONAL_FIT = ('friction_force', 'initial_temperature_rise')
+OPTIONAL_FIT = ('friction_force', 'initial_temperature_rise') + PHYSICS_FIT
 #: catalogue effect parameters a calibration fits when named in ``fit`` (dotted names)
 EFFECT_PARAMETERS = tuple(n for names in CATALOGUE.values() for n in names
                           if n.startswith('effects.'))
@@ -71,20 +75,30 @@ def calibration_priors(params, nominal_power, has_resistance, r0_measured=None,
     ``max_damping`` (N s/m): the damping's upper bound (:func:`damping_bound`).
     """
     conductance = thermal_conductance(params.fiber, params.thermal)
-    tau = heat_capacity(params.fiber) / conductance
-    e = params.electrical
+    capacity = heat_capacity(params.fiber)
+    spread = prior_spreads(params)
     out = [
-        engine.Parameter('thermal_time_constant', 's', tau, 0.1, 500.0, math.log(4.0),
-                         description='m_t c_p / (h c_s A_0), eq. (1)'),
-        engine.Parameter('steady_rise', 'K/W', 1.0 / conductance, 1.0, 3000.0,
-                         math.log(4.0), description='1 / (h c_s A_0), eq. (1)'),
+        engine.Parameter('heat_capacity', 'J/K', capacity, capacity / 20.0, capacity * 20.0,
+                         spread['heat_capacity'], description='m_t c_p, eq. (1)'),
+        engine.Parameter('heat_loss', 'W/K', conductance, conductance / 20.0,
+                         conductance * 20.0, spread['heat_loss'],
+                         description='h c_s A_0, eq. (1)'),
+        engine.Parameter('expansion_zero_temperature', 'degC', expansion_zero(params.fiber),
+                         -200.0, params.thermal.ambient_temperature - 1.0,
+                         spread['expansion_zero_temperature'], log=False,
+                         description="where dGamma/dT of eq. (2) vanishes: the curvature of "
+                                     'the stroke-temperature characteristic'),
+        engine.Parameter('actuation_lag', 's',
+                         max(params.effects.second_thermal_lag, ACTUATION_LAG_PRIOR), 0.0,
+                         120.0, spread['actuation_lag'], log=False,
+                         description='first-order lag of the actuating temperature'),
         engine.Parameter('actuation_gain', '-', params.fiber.untwist_gain, 0.02, 20.0,
-                         math.log(4.0), description='untwist gain on eq. (4)'),
-        engine.Parameter('stiffness_scale', '-', 1.0, 0.05, 20.0, math.log(2.0),
+                         spread['actuation_gain'], description='untwist gain on eq. (4)'),
+        engine.Parameter('stiffness_scale', '-', 1.0, 0.05, 20.0, spread['stiffness_scale'],
                          description='E and G relative to the start config'),
         engine.Parameter('damping', 'N s/m',
                          min(max(params.dynamics.damping, 1e-3), max_damping), 1e-3,
-                         max_damping, math.log(10.0), description='b_t of eq. (18)'),
+                         max_damping, spread['damping'], description='b_t of eq. (18)'),
     ]
     out.append(engine.Parameter(
         'initial_temperature_rise', 'K', params.thermal.initial_temperature_rise, 0.0,
@@ -93,7 +107,7 @@ def calibration_priors(params, nominal_power, has_resistance, r0_measured=None,
     if nominal_power:
         out.append(engine.Parameter(
             'delivered_power_ratio', '-', params.thermal.delivered_power_ratio, 0.2, 5.0,
-            math.log(1.25), description='power heating the thread / logged power'))
+            spread['delivered_power_ratio'], description='power heating the thread / logged power'))
     if has_resistance:
         r0 = r0_measured or e.resistance
         out.append(engine.Parameter('resistance', 'ohm', r0, r0 / 10.0, r0 * 10.0,
@@ -146,17 +160,17 @@ def apply_calibration(params, values):
     """
     flat = {}
     fiber, thermal = params.fiber, params.thermal
-    tau = values.get('thermal_time_constant')
-    rise = values.get('steady_rise')
-    if tau is not None or rise is not None:
-        conductance = thermal_conductance(fiber, thermal)
-        rise = rise if rise is not None else 1.0 / conductance
-        tau = tau if tau is not None else heat_capacity(fiber) / conductance
-        conductance = 1.0 / rise
+    capacity, conductance = _heat(values, fiber, thermal)
+    if capacity is not None:
         area = thermal.surface_factor * surface_area(fiber)
-        fiber_mass = heat_capacity(fiber) / fiber.specific_heat
         flat['thermal.convection_coefficient'] = conductance / area
-        flat['fiber.specific_heat'] = tau * conductance / fiber_mass
+        flat['fiber.specific_heat'] = capacity / fiber_mass(fiber)
+    if 'expansion_zero_temperature' in values:
+        c2, _, c0 = fiber.gamma_coefficients
+        flat['fiber.gamma_coefficients'] = [
+            c2, -2.0 * c2 * values['expansion_zero_temperature'], c0]
+    if 'actuation_lag' in values:
+        flat['effects.second_thermal_lag'] = values['actuation_lag']
     simple = {'actuation_gain': 'fiber.untwist_gain', 'damping': 'dynamics.damping',
               'friction_force': 'effects.friction_force',
               'delivered_power_ratio': 'thermal.delivered_power_ratio',
@@ -173,3 +187,33 @@ def apply_calibration(params, values):
         flat['moduli.youngs_modulus'] = params.moduli.youngs_modulus * s
         flat['moduli.shear_modulus'] = params.moduli.shear_modulus * s
     return params.with_values(**flat) if flat else params
+
+
+def _heat(values, fiber, thermal):
+    """Return (m_t c_p J/K, h c_s A_0 W/K) of ``values``, or (None, None) if none is given.
+
+    Either pair names them: heat_capacity and heat_loss, or (as realistic.py draws
+    its truths) thermal_time_constant (s) and steady_rise (K/W).
+    """
+    names = ('heat_capacity', 'heat_loss', 'thermal_time_constant', 'steady_rise')
+    if not any(n in values for n in names):
+        return None, None
+    conductance = thermal_conductance(fiber, thermal)
+    capacity = heat_capacity(fiber)
+    if 'steady_rise' in values:
+        conductance = 1.0 / values['steady_rise']
+    conductance = values.get('heat_loss', conductance)
+    if 'thermal_time_constant' in values:
+        capacity = values['thermal_time_constant'] * conductance
+    capacity = values.get('heat_capacity', capacity)
+    return capacity, conductance
+
+
+def expansion_zero(fiber):
+    """Return T_z (degC) where dGamma/dT = 2 c2 T + c1 of eq. (2) vanishes: -c1 / (2 c2).
+
+    The radial expansion rate grows linearly from zero at T_z; the paper's fit puts
+    T_z at 9.47 degC. A lower T_z is a less convex stroke-temperature characteristic.
+    """
+    c2, c1, _ = fiber.gamma_coefficients
+    return -c1 / (2.0 * c2) if c2 > 0.0 else -200.0

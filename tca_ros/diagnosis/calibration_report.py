@@ -60,6 +60,7 @@ def format_summary(cal):
         flag = '' if est.determined else '  (not determined: mostly its prior)'
         lines.append(f'{est.name:<28s}{est.prior:>12.4g}{est.value:>13.4g}'
                      f'{est.stderr:>11.2g}  {est.unit}{flag}')
+    lines += format_plausibility(cal)
     if cal.nrmse:
         lines.append('record                               nRMSE start  nRMSE calibrated')
         for r, a, b in zip(cal.records, cal.start_nrmse, cal.nrmse):
@@ -71,3 +72,42 @@ def format_summary(cal):
     if not cal.report.success:
         lines.append(f'warning: the fit did not converge ({cal.report.message})')
     return '\n'.join(lines)
+
+
+def format_plausibility(cal):
+    """Return the lines of the plausibility report: value, prior, physical reference, z."""
+    rows = cal.plausibility()
+    if not rows:
+        return []
+    lines = ['plausibility: each value beside its prior (z in prior spreads) and its physical '
+             'reference',
+             f'{"parameter":<28s}{"value":>11s}{"prior":>11s}{"z":>7s}{"physical":>11s}'
+             f'{"ratio":>7s}  limits']
+    for row in rows:
+        ref = f'{row.reference:>11.4g}' if row.reference == row.reference else f'{"-":>11s}'
+        ratio = f'{row.ratio:>7.2f}' if row.ratio == row.ratio else f'{"-":>7s}'
+        limits = '-'.join('..' if v != v else f'{v:.3g}' for v in (row.low, row.high))
+        flag = '  IMPLAUSIBLE' if row.implausible else ''
+        lines.append(f'{row.name:<28s}{row.value:>11.4g}{row.prior:>11.4g}{row.z:>7.1f}'
+                     f'{ref}{ratio}  {limits} {row.unit}{flag}')
+    values = {r.name: r.value for r in rows}
+    if 'heat_capacity' in values and 'heat_loss' in values:
+        tau = values['heat_capacity'] / values['heat_loss']
+        peak = max((float(np.max(r.power)) for r in cal.records), default=0.0)
+        ratio = values.get('delivered_power_ratio', 1.0)
+        hot = cal.start.thermal.ambient_temperature + ratio * peak / values['heat_loss']
+        lines.append(f'derived: thermal time constant {tau:.3g} s, steady rise '
+                     f'{1.0 / values["heat_loss"]:.3g} K/W, {hot:.0f} degC at the highest '
+                     f'logged power {peak:.3g} W')
+    for a, b, kind, spread in cal.combinations():
+        lines.append(f'the records fix the {kind} of {a} and {b} (to {spread:.0%}), not each: '
+                     'each is held near its prior')
+    bad = [r.name for r in rows if r.implausible]
+    if bad:
+        lines.append('warning: implausible ' + ', '.join(bad) + ': outside the physical limits '
+                     'of the thread and geometry; the fit uses them to stand in for physics the '
+                     'model lacks')
+    if 'resistance' not in cal.channels and 'temperature' not in cal.channels:
+        lines.append('note: no temperature or resistance channel: temperatures are the '
+                     "priors' (heat_loss, delivered_power_ratio), not measured")
+    return lines

@@ -93,7 +93,8 @@ class DiagnosisResult:
             'records': list(self.records),
             'model': self.model,
             'calibrated': ({k: v.as_dict() for k, v in
-                            self.calibration.report.estimates.items()}
+                            {**self.calibration.report.estimates,
+                             **self.calibration.derived()}.items()}
                            if self.calibration is not None else None),
             'candidates': [{'name': s.name, 'params': dict(s.fit.params),
                             'heldout_rmse': s.heldout_rmse['displacement'],

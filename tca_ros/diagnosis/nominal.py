@@ -138,6 +138,7 @@ def calibrate_training_part(records, params_of, model, fraction, supply, progres
     coarse = [decimated(r, CALIBRATION_RATE_HZ) for r in records]
     masks = [holdout.train_mask(c.time, r.duration) for c, r in zip(coarse, records)]
     try:
+        calibrate_options.setdefault('physics', False)  # the catalogue holds the lag
         cal = calibrate(coarse, params_of[0], model=model, check=False, supply=supply,
                         progress=progress, masks=masks, **calibrate_options)
     except (CalibrationError, QuasiStaticUnsupported, ValueError, ArithmeticError) as exc:

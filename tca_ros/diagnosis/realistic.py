@@ -16,6 +16,7 @@ import os
 import numpy as np
 
 from tca_ros.diagnosis.calibration import apply_calibration, record_params
+from tca_ros.diagnosis.calibration_parameters import expansion_zero
 from tca_ros.diagnosis.data import Record, write_csv_record
 from tca_ros.diagnosis.generator import draw_effect_values, random_power_profile
 from tca_ros.model.effects import CATALOGUE, true_ambient
@@ -70,6 +71,10 @@ def draw_muscle(rng, config='free_stroke', target_peak_c=130.0, powers=3):
               'steady_rise': rng.uniform(*TRUTH_RANGES['steady_rise']) / conductance,
               'actuation_gain': rng.uniform(*TRUTH_RANGES['actuation_gain']),
               'damping': rng.uniform(*TRUTH_RANGES['damping'])}
+    # the same truth in the calibration's own coordinates; no lag, the paper's curvature
+    values.update(heat_loss=1.0 / values['steady_rise'],
+                  heat_capacity=values['thermal_time_constant'] / values['steady_rise'],
+                  actuation_lag=0.0, expansion_zero_temperature=expansion_zero(start.fiber))
     truth = apply_calibration(start, values)
     top = (target_peak_c - start.thermal.ambient_temperature) / values['steady_rise']
     levels = [round(top * (k + 1) / powers, 3) for k in range(powers)]

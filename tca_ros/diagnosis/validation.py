@@ -77,3 +77,23 @@ def format_table(rows):
                      f'{np.median([h.start for h in sel]):>9.1%}'
                      f'{np.median([h.lumped for h in sel]):>9.1%}')
     return '\n'.join(lines)
+
+
+def repeat_floor(records):
+    """Return per record the nRMSE (-) of the mean of its repeats; nan without repeats.
+
+    The repeats of a record are the other records at its condition (condition_of),
+    each interpolated onto its time grid (s) and averaged: what a model that knew
+    the condition's mean response exactly would score. Different muscles and
+    their history make repeats differ; no model of one muscle does better.
+    """
+    from tca_ros.diagnosis.calibration import normalised_rmse
+    out = []
+    for r in records:
+        others = [o for o in records if o is not r and condition_of(o) == condition_of(r)]
+        if not others:
+            out.append(float('nan'))
+            continue
+        mean = np.mean([np.interp(r.time, o.time, o.displacement) for o in others], axis=0)
+        out.append(normalised_rmse(r, mean))
+    return out

@@ -1,0 +1,160 @@
+"""Physical priors of a calibration and the plausibility of what it found.
+
+Each calibration parameter has a prior centred on the user's description (the
+start params file) with a stated spread, and an independent physical reference
+from the thread and the geometry: the heat capacity m_t c_p from the fibre's mass
+and specific heat, the heat loss from a convection correlation for a thin heated
+cylinder in still air plus radiation (model/heat_transfer.py), stiffness and
+actuation from the thread preset (scale 1). A calibrated value past its stated
+physical limits is **implausible**: the fit spent its freedom there to stand in for
+something the model lacks (docs/calibration.md, "Physical priors").
+"""
+from dataclasses import dataclass
+import math
+
+from tca_ros.model.heat_transfer import natural_convection_coefficient, radiation_coefficient
+from tca_ros.model.thermal import heat_capacity, surface_area
+
+#: prior standard deviation of ln(value) (linear: of the value, in its unit), by parameter
+PRIOR_SPREAD = {
+    'heat_capacity': math.log(1.3),  # mass from the geometry +-15 %, c_p of coated nylon +-15 %
+    'heat_loss': math.log(1.6),  # correlation scatter, orientation, coil shielding, emissivity
+    'actuation_gain': math.log(2.0),  # the paper's untwist law on another thread and twist
+    'stiffness_scale': math.log(1.5),  # moduli of the preset on another thread
+    'damping': math.log(10.0),  # not known: a coil in air is nearly undamped
+    'delivered_power_ratio': math.log(1.25),  # a supply's setting vs what heats the thread
+    'expansion_zero_temperature': 20.0,  # K, about the paper's 9.47 degC
+    'actuation_lag': 5.0,  # s, not known: nearly flat over what a bench can show
+}
+#: the actuation lag's prior centre (s): about none (0 is its bound, where a fit could
+#: not start)
+ACTUATION_LAG_PRIOR = 0.5
+#: physical limits (low, high) of value / physical reference (ratio parameters)
+PLAUSIBLE_RATIO = {
+    'heat_capacity': (0.5, 2.0),
+    'heat_loss': (1.0 / 3.0, 3.0),  # still air; a fan or a liquid is another condition
+    'actuation_gain': (0.25, 4.0),
+    'stiffness_scale': (1.0 / 3.0, 3.0),
+    'delivered_power_ratio': (0.5, 1.2),
+}
+#: absolute limits (low, high) of parameters with no reference ratio (unit of each)
+PLAUSIBLE_RANGE = {
+    'expansion_zero_temperature': (-60.0, None),  # degC: a nearly linear Gamma(T) below it
+    'actuation_lag': (None, 60.0),  # s
+}
+LINEAR = ('expansion_zero_temperature', 'actuation_lag')  # spreads in the unit
+REFERENCE_RISE_K = 50.0  # K, surface temperature rise at which the loss is estimated
+EMISSIVITY = 0.5  # -, between polished silver (0.05) and nylon (0.9): unknown
+
+
+def prior_spreads(params):
+    """Return {name: prior spread} for ``params`` (PRIOR_SPREAD; a description may tighten it).
+
+    ``params.uncertainty`` (when the params schema has one) states how well the
+    maker knows each value; absent, the defaults above apply.
+    """
+    out = dict(PRIOR_SPREAD)
+    stated = getattr(params, 'uncertainty', None)
+    for name in out:
+        value = getattr(stated, name, None) if stated is not None else None
+        if value is not None and value > 0.0:
+            out[name] = value if name in LINEAR else math.log1p(value)
+    return out
+
+
+def still_air_heat_loss(params):
+    """Return h A_0 (W/K) of the twisted thread in still air, convection and radiation.
+
+    Morgan's correlation on the thread's diameter 2 r_t at REFERENCE_RISE_K above
+    ambient plus the linearised radiation at EMISSIVITY, on the smooth area A_0
+    (the roughness factor c_s of eq. (1) is what the correlation already gives:
+    for the paper's thread, 55 W/(m^2 K) against its h c_s = 57.5).
+    """
+    ambient = params.thermal.ambient_temperature
+    d = 2.0 * params.fiber.radius
+    h = natural_convection_coefficient(d, REFERENCE_RISE_K, ambient) \
+        + radiation_coefficient(EMISSIVITY, REFERENCE_RISE_K, ambient)
+    return h * surface_area(params.fiber)
+
+
+def physical_reference(params):
+    """Return {name: (value, how)}: each parameter's physical estimate from the description."""
+    return {
+        'heat_capacity': (heat_capacity(params.fiber), 'm_t c_p of the thread'),
+        'heat_loss': (still_air_heat_loss(params), 'thin cylinder in still air'),
+        'actuation_gain': (1.0, "the paper's untwist law"),
+        'stiffness_scale': (1.0, "the thread preset's moduli"),
+        'delivered_power_ratio': (1.0, 'the logged power heats the thread'),
+    }
+
+
+@dataclass
+class Plausibility:
+    """One calibrated value beside its prior and its physical reference."""
+
+    name: str
+    unit: str
+    value: float
+    prior: float
+    z: float  # (value - prior) / prior spread, in fit coordinates
+    reference: float  # physical estimate (nan where there is none)
+    how: str
+    low: float  # plausible limits (unit; nan: open)
+    high: float
+    implausible: bool
+
+    @property
+    def ratio(self):
+        """Return value / physical reference (-), nan without one."""
+        return self.value / self.reference if self.reference > 0.0 else float('nan')
+
+
+def plausibility(parameters, values, params):
+    """Return [Plausibility] of calibrated ``values`` ({name: value}) of ``parameters``.
+
+    ``parameters``: {name: engine.Parameter} (priors); ``params``: the start TcaParams.
+    """
+    reference = physical_reference(params)
+    rows = []
+    for name, value in values.items():
+        par = parameters.get(name)
+        if par is None:
+            continue
+        z = (par.to_fit(value) - par.to_fit(par.prior)) / par.spread
+        ref, how = reference.get(name, (float('nan'), ''))
+        if name in PLAUSIBLE_RATIO and ref > 0.0:
+            low, high = (ref * k for k in PLAUSIBLE_RATIO[name])
+        else:
+            low, high = PLAUSIBLE_RANGE.get(name, (None, None))
+        low = float('nan') if low is None else low
+        high = float('nan') if high is None else high
+        bad = bool(value < low or value > high)
+        rows.append(Plausibility(name, par.unit, float(value), par.prior, float(z),
+                                 float(ref), how, low, high, bad))
+    return rows
+
+
+def degenerate_combinations(estimates, parameters, correlation, names, threshold=0.9):
+    """Return [(a, b, kind, spread)]: pairs the records fix only in combination.
+
+    Two parameters, at least one not determined by the records, whose posterior
+    correlation exceeds ``threshold`` in magnitude: the records fix their product
+    (kind 'product', correlation < 0) or ratio ('ratio', > 0) in log coordinates,
+    to the relative ``spread`` (-), and the priors share the rest between them.
+    """
+    out = []
+    if correlation is None:
+        return out
+    for i, a in enumerate(names):
+        for j in range(i + 1, len(names)):
+            b = names[j]
+            ea, eb = estimates.get(a), estimates.get(b)
+            if ea is None or eb is None or (ea.determined and eb.determined):
+                continue
+            rho = correlation[i, j]
+            if not abs(rho) >= threshold or not (parameters[a].log and parameters[b].log):
+                continue
+            sa, sb = ea.stderr / ea.value, eb.stderr / eb.value
+            var = sa ** 2 + sb ** 2 - 2.0 * abs(rho) * sa * sb  # of ln a +- ln b
+            out.append((a, b, 'ratio' if rho > 0 else 'product', math.sqrt(max(var, 0.0))))
+    return out
