@@ -14,6 +14,7 @@ FLAGS = {'thread': '--thread', 'thread_diameter': '--thread-diameter', 'coil': '
          'outer_diameter': '--outer-diameter', 'pitch_angle_deg': '--pitch-angle',
          'coils': '--coils', 'loaded_length': '--loaded-length',
          'natural_length': '--natural-length', 'resistance': '--resistance',
+         'break_force': '--break-force',
          'mass': '--mass', 'ambient_degc': '--ambient', 'model': '--model',
          'min_pitch_angle_deg': '--min-pitch-angle', 'inserted_twist': '--inserted-twist',
          'spiral_pitch': '--spiral-pitch', 'cone_angle_deg': '--cone-angle'}
@@ -22,7 +23,8 @@ FLAGS = {'thread': '--thread', 'thread_diameter': '--thread-diameter', 'coil': '
 METAVARS = {'out': 'PATH', 'thread': 'PRESET', 'thread_diameter': 'M', 'coil': 'TYPE',
             'mandrel_diameter': 'M', 'coil_diameter': 'M', 'outer_diameter': 'M',
             'pitch_angle': 'DEG', 'coils': 'N', 'loaded_length': 'M', 'natural_length': 'M',
-            'resistance': 'OHM', 'mass': 'KG', 'ambient': 'DEGC', 'model': 'MODEL',
+            'resistance': 'OHM', 'break_force': 'N',
+            'mass': 'KG', 'ambient': 'DEGC', 'model': 'MODEL',
             'min_pitch_angle': 'DEG', 'inserted_twist': 'RAD_PER_M', 'spiral_pitch': 'M',
             'cone_angle': 'DEG'}
 
@@ -67,6 +69,9 @@ def add_parser(subparsers):
     new.add_argument('--resistance', type=float, default=None,
                      help='resistance R0 at ambient and loaded length (ohm); default: '
                           "the preset's ohm/m x l_t (required for a non-conductive thread)")
+    new.add_argument('--break-force', type=float, default=None,
+                     help="the thread's measured strength (N); default: the preset's "
+                          'breaking stress x the section pi r_t^2')
     new.add_argument('--mass', type=float, default=0.0, help='hanging mass (kg)')
     new.add_argument('--ambient', type=float, default=25.0,
                      help='ambient temperature T0 (degC)')
@@ -98,7 +103,8 @@ def spec_from_args(args):
         mandrel_diameter=args.mandrel_diameter, coil_diameter=args.coil_diameter,
         outer_diameter=args.outer_diameter, pitch_angle_deg=args.pitch_angle,
         coils=args.coils, loaded_length=args.loaded_length,
-        natural_length=args.natural_length, resistance=args.resistance, mass=args.mass,
+        natural_length=args.natural_length, resistance=args.resistance,
+        break_force=args.break_force, mass=args.mass,
         ambient_degc=args.ambient, model=args.model,
         min_pitch_angle_deg=args.min_pitch_angle, inserted_twist=args.inserted_twist,
         spiral_pitch=args.spiral_pitch, cone_angle_deg=args.cone_angle)

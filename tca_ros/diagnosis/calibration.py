@@ -68,6 +68,7 @@ WARM_START_SAMPLES = 8  # samples of power off at the start needed likewise
 WARM_START_SIGMAS = 4.0  # the fall over them that is no noise, in its standard errors
 WARM_START_MIN_FALL_K = 0.3  # K, and at least this fall (a thermocouple's resolution)
 MIN_CURVATURE_LEVELS = 2  # power levels needed to fit the characteristic's curvature
+HELD_MARGIN = 1.1  # strength taken, x the largest load a record shows the thread held
 POWER_OFF_SHARE = 0.05  # a logged power below this share of its peak is taken as off
 
 
@@ -106,6 +107,27 @@ def starts_warm(record, ambient):
     sigma = noise_sigma(record.temperature) / np.sqrt(quarter)
     return (first > ambient and first - last > WARM_START_MIN_FALL_K
             and first - last > WARM_START_SIGMAS * np.sqrt(2.0) * sigma)
+
+
+def held_strength(params, records):
+    """Return (params, warning or None): the thread's strength raised to what the records held.
+
+    ``fiber.break_force`` (N) is an assumed strength (a preset's, or the paper's 240 g);
+    a record whose load exceeds it shows that this thread held that load, and a
+    recording is evidence, not an input to refuse. The strength is raised to
+    HELD_MARGIN times the largest recorded load (N) and the warning says so.
+    """
+    top = max(float(np.max(r.load)) for r in records)
+    if not top > params.fiber.break_force:
+        return params, None
+    raised = HELD_MARGIN * top
+    name = next((r.source for r in records if float(np.max(r.load)) == top), None) \
+        or 'a record'
+    return params.with_values(**{'fiber.break_force': raised}), (
+        f'warning: {name} carries {top:.4g} N, above the assumed fiber.break_force '
+        f'{params.fiber.break_force:.4g} N, and the thread held: strength taken as '
+        f'{raised:.4g} N ({HELD_MARGIN:g} x the load); give the measured one with '
+        '`tca_sim config new --break-force`')
 
 
 def record_params(params, record):
@@ -236,7 +258,8 @@ def prepare_start(params, records, model=None):
     Header ``length_m`` (loaded length at ambient, m) rescales l_t; header
     ``resistance_ohm`` (ohm at ambient) sets R0.
     """
-    notes = []
+    params, warning = held_strength(params, records)
+    notes = [warning] if warning else []
     params = record_params(params, records[0])
     lengths = [float(r.meta['length_m']) for r in records if 'length_m' in r.meta]
     if lengths:
@@ -326,7 +349,8 @@ def calibrate(records, params, model=None, fit=None, progress=False, max_nfev=40
     ``fit``: names to fit (default :func:`default_fit`, restricted to what the
     records can inform); ``physics``: the default adds the actuation lag and the
     curvature (False: DEFAULT_FIT only, the diagnosis's nominal model, whose
-    catalogue holds the lag as an effect to find); ``check``: score start and result with the full dynamics (18);
+    catalogue holds the lag as an effect to find); ``check``: score start and
+    result with the full dynamics (18);
     ``masks``: per record a boolean array of the samples fitted (default all;
     the records are simulated whole either way, e.g. a diagnosis's training
     blocks); ``start_values``: {name: value} the fit starts from (default the

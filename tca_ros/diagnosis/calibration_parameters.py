@@ -8,12 +8,13 @@ diagnosis and the realistic record generator alike.
 import math
 
 from tca_ros.diagnosis import engine
+from tca_ros.diagnosis.physical_priors import ACTUATION_LAG_PRIOR, prior_spreads
 from tca_ros.model.effects import CATALOGUE
 from tca_ros.model.end_motion import critical_damping
 from tca_ros.model.kinetostatics import static_elongation
 from tca_ros.model.static_maps import make_statics
-from tca_ros.diagnosis.physical_priors import ACTUATION_LAG_PRIOR, prior_spreads
-from tca_ros.model.thermal import fiber_mass, heat_capacity, surface_area, thermal_conductance
+from tca_ros.model.thermal import fiber_mass, heat_capacity, surface_area, \
+    thermal_conductance
 
 DEFAULT_FIT = ('heat_capacity', 'heat_loss', 'actuation_gain', 'stiffness_scale',
                'damping', 'delivered_power_ratio', 'resistance',
@@ -77,6 +78,7 @@ def calibration_priors(params, nominal_power, has_resistance, r0_measured=None,
     conductance = thermal_conductance(params.fiber, params.thermal)
     capacity = heat_capacity(params.fiber)
     spread = prior_spreads(params)
+    e = params.electrical
     out = [
         engine.Parameter('heat_capacity', 'J/K', capacity, capacity / 20.0, capacity * 20.0,
                          spread['heat_capacity'], description='m_t c_p, eq. (1)'),
@@ -86,8 +88,8 @@ def calibration_priors(params, nominal_power, has_resistance, r0_measured=None,
         engine.Parameter('expansion_zero_temperature', 'degC', expansion_zero(params.fiber),
                          -200.0, params.thermal.ambient_temperature - 1.0,
                          spread['expansion_zero_temperature'], log=False,
-                         description="where dGamma/dT of eq. (2) vanishes: the curvature of "
-                                     'the stroke-temperature characteristic'),
+                         description='where dGamma/dT of eq. (2) vanishes: the curvature '
+                                     'of the stroke-temperature characteristic'),
         engine.Parameter('actuation_lag', 's',
                          max(params.effects.second_thermal_lag, ACTUATION_LAG_PRIOR), 0.0,
                          120.0, spread['actuation_lag'], log=False,
@@ -107,7 +109,8 @@ def calibration_priors(params, nominal_power, has_resistance, r0_measured=None,
     if nominal_power:
         out.append(engine.Parameter(
             'delivered_power_ratio', '-', params.thermal.delivered_power_ratio, 0.2, 5.0,
-            spread['delivered_power_ratio'], description='power heating the thread / logged power'))
+            spread['delivered_power_ratio'],
+            description='power heating the thread / logged power'))
     if has_resistance:
         r0 = r0_measured or e.resistance
         out.append(engine.Parameter('resistance', 'ohm', r0, r0 / 10.0, r0 * 10.0,

@@ -87,7 +87,7 @@ def format_plausibility(cal):
         ref = f'{row.reference:>11.4g}' if row.reference == row.reference else f'{"-":>11s}'
         ratio = f'{row.ratio:>7.2f}' if row.ratio == row.ratio else f'{"-":>7s}'
         limits = '-'.join('..' if v != v else f'{v:.3g}' for v in (row.low, row.high))
-        flag = '  IMPLAUSIBLE' if row.implausible else ''
+        flag = '  IMPLAUSIBLE' if row.implausible else '  SHIFTED' if row.shifted else ''
         lines.append(f'{row.name:<28s}{row.value:>11.4g}{row.prior:>11.4g}{row.z:>7.1f}'
                      f'{ref}{ratio}  {limits} {row.unit}{flag}')
     values = {r.name: r.value for r in rows}
@@ -102,6 +102,11 @@ def format_plausibility(cal):
     for a, b, kind, spread in cal.combinations():
         lines.append(f'the records fix the {kind} of {a} and {b} (to {spread:.0%}), not each: '
                      'each is held near its prior')
+    moved = [f'{r.name} (z = {r.z:+.1f})' for r in rows if r.shifted and not r.implausible]
+    if moved:
+        lines.append('finding: ' + ', '.join(moved) + ' left the description by more than '
+                     'its stated uncertainty: the muscle differs there, or an effect the '
+                     'model lacks stands in (`tca_sim diagnose`)')
     bad = [r.name for r in rows if r.implausible]
     if bad:
         lines.append('warning: implausible ' + ', '.join(bad) + ': outside the physical limits '

@@ -8,6 +8,7 @@ import math
 import os
 import time as wallclock
 
+from tca_ros.diagnosis.calibration import held_strength
 from tca_ros.diagnosis.candidates import ABSORBED, absorbed_candidates, parameters_at_bounds
 from tca_ros.diagnosis.data import DataError, record_config
 from tca_ros.diagnosis.holdout import AUTO, choose_validation, DEFAULT_VALIDATION
@@ -163,10 +164,11 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
     clear_map_cache()  # identical inputs give identical numbers (the maps grow on demand)
     paths, records, config, model, base = _read(data_path, config, calibrated, model)
     record = records[0]
+    base, warning = held_strength(base, records)
     params_of = start_params = [record_nominal(base, r) for r in records]
     fraction = train_fraction or fitting.TRAIN_FRACTION
     validation = choose_validation(records, fraction, validation)
-    cal, notes = None, []
+    cal, notes = None, [warning] if warning else []
     if len(records) > 1:
         notes.append(f'{len(records)} records of one muscle diagnosed together: one '
                      'calibration, shared effect parameters, each record split in time')

@@ -43,6 +43,8 @@ PLAUSIBLE_RANGE = {
     'actuation_lag': (None, 60.0),  # s
 }
 LINEAR = ('expansion_zero_temperature', 'actuation_lag')  # spreads in the unit
+#: |z| beyond which a value has left what the description stated: a finding to explain
+SHIFT_Z = 2.0
 REFERENCE_RISE_K = 50.0  # K, surface temperature rise at which the loss is estimated
 EMISSIVITY = 0.5  # -, between polished silver (0.05) and nylon (0.9): unknown
 
@@ -102,6 +104,11 @@ class Plausibility:
     low: float  # plausible limits (unit; nan: open)
     high: float
     implausible: bool
+
+    @property
+    def shifted(self):
+        """Return True when the value left its prior by more than SHIFT_Z spreads: a finding."""
+        return abs(self.z) > SHIFT_Z
 
     @property
     def ratio(self):

@@ -13,8 +13,6 @@ References
 [2] F. P. Incropera, D. P. DeWitt, Fundamentals of Heat and Mass Transfer, 6th ed.,
     Table A.4 (air at 300-350 K) and eq. (1.9) (linearised radiation).
 """
-import math
-
 GRAVITY = 9.81  # m/s^2
 STEFAN_BOLTZMANN = 5.670374419e-8  # W/(m^2 K^4)
 KELVIN = 273.15  # K at 0 degC
@@ -36,7 +34,7 @@ def air_properties(film_temp):
 
 
 def rayleigh_number(diameter, temp_difference, ambient):
-    """Return Ra_d = g beta dT d^3 / (nu alpha) (-) of a cylinder ``diameter`` (m) hotter by dT (K)."""
+    """Return Ra_d = g beta dT d^3 / (nu alpha) (-) of a cylinder (m) hotter by dT (K)."""
     film = ambient + 0.5 * temp_difference
     _, nu, alpha = air_properties(film)
     beta = 1.0 / (film + KELVIN)  # 1/K, ideal gas

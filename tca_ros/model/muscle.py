@@ -111,6 +111,7 @@ def describe_muscle(spec, presets=None):
     else:
         _helix_geometry(spec, flat, derived, r_t)
     flat['electrical.resistance'] = _resistance(spec, preset, flat, derived)
+    flat['fiber.break_force'] = _break_force(spec, preset, r_t, derived)
     params = _build(flat)
     _thermal_figures(params, derived)
     return MuscleDescription(params=params, preset=preset, derived=derived)
@@ -345,6 +346,16 @@ def _conical_geometry(spec, flat, derived):
                  'coil.pitch_angle_deg': math.degrees(alpha), 'coil.spiral_pitch': pitch,
                  'coil.cone_angle_deg': cone_deg, 'coil.contact': False,
                  'coil.min_pitch_angle_deg': min_deg})
+
+
+def _break_force(spec, preset, r_t, derived):
+    """Return the thread's strength (N): given, or the preset's breaking stress x pi r_t^2."""
+    if spec.break_force is not None:
+        return spec.break_force
+    value = preset.breaking_stress * math.pi * r_t ** 2
+    derived['break_force'] = Derived(value, 'N', f'{preset.breaking_stress:.3g} Pa of '
+                                     f'{preset.name} x pi r_t^2 (measure it: --break-force)')
+    return value
 
 
 def _resistance(spec, preset, flat, derived):

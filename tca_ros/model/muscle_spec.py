@@ -65,6 +65,7 @@ class MuscleSpec:
     loaded_length: float = None
     natural_length: float = None
     resistance: float = None
+    break_force: float = None
     mass: float = 0.0
     ambient_degc: float = 25.0
     model: str = 'rod'
@@ -92,6 +93,7 @@ def check_spec(spec, presets):
                           f'above {high:g} m, the largest twisted thread the model takes', 'm')
     for name in ('mandrel_diameter', 'coil_diameter', 'outer_diameter', 'coils',
                  'loaded_length', 'natural_length', 'resistance', 'inserted_twist',
+                 'break_force',
                  'spiral_pitch', 'pitch_angle_deg', 'cone_angle_deg'):
         if getattr(spec, name) is not None:
             check_positive(spec, name, SPEC_UNITS[name])
@@ -145,5 +147,6 @@ def check_exactly_one(spec, first, second):
 SPEC_UNITS = {'thread_diameter': 'm', 'mandrel_diameter': 'm', 'coil_diameter': 'm',
               'outer_diameter': 'm', 'pitch_angle_deg': 'deg', 'coils': '-',
               'loaded_length': 'm', 'natural_length': 'm', 'resistance': 'ohm',
+              'break_force': 'N',
               'mass': 'kg', 'ambient_degc': 'degC', 'min_pitch_angle_deg': 'deg',
               'inserted_twist': 'rad/m', 'spiral_pitch': 'm', 'cone_angle_deg': 'deg'}

@@ -5,6 +5,7 @@ the thread's resistance per length and its twist-diameter product; muscle.py
 combines it with the maker's geometry.
 """
 from dataclasses import dataclass, field
+import math
 import os
 
 import yaml
@@ -19,6 +20,10 @@ MATERIAL_PARAMETERS = frozenset((
     'moduli.fiber_modulus', 'moduli.fiber_softening', 'moduli.load_coefficients',
     'moduli.max_torsion_strain', 'moduli.fiber_modulus_floor',
     'electrical.temperature_coefficient', 'electrical.strain_coefficient'))
+
+
+#: Pa: the paper's twisted thread (d = 0.42 mm) breaks under 240 g (Sec. V-A)
+DEFAULT_BREAKING_STRESS = 2.354 / (math.pi * 0.21e-3 ** 2)
 
 
 @dataclass(frozen=True)
@@ -36,6 +41,7 @@ class ThreadPreset:
     resistance_per_length: object
     twist_diameter_product: float
     params: dict = field(default_factory=dict)
+    breaking_stress: float = DEFAULT_BREAKING_STRESS  # Pa, of the twisted thread's section
 
 
 def thread_presets_path():
@@ -70,5 +76,6 @@ def load_thread_presets(path=None):
             name=str(name), description=' '.join(str(entry.get('description', '')).split()),
             conductive=bool(entry.get('conductive', False)),
             resistance_per_length=entry.get('resistance_per_length'),
-            twist_diameter_product=float(entry['twist_diameter_product']), params=values)
+            twist_diameter_product=float(entry['twist_diameter_product']), params=values,
+            breaking_stress=float(entry.get('breaking_stress', DEFAULT_BREAKING_STRESS)))
     return presets
