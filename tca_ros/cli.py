@@ -315,6 +315,8 @@ def build_parser():
     add_config_parser(sub)
     from tca_ros.cli_calibrate import add_parser as add_calibrate_parser
     add_calibrate_parser(sub)
+    from tca_ros.cli_validate import add_parser as add_validate_parser
+    add_validate_parser(sub)
     from tca_ros.cli_toolkit import add_parser as add_toolkit_parser
     add_toolkit_parser(sub)
 

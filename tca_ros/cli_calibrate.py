@@ -90,6 +90,8 @@ def cmd_calibrate(args, out):
     for est in cal.report.estimates.values():
         state = 'fitted' if est.determined else 'NOT determined: mostly its prior'
         header.append(f'{est.name} = {est.value:.5g} +- {est.stderr:.2g} {est.unit} ({state})')
+    from tca_ros.diagnosis.transfer import header_line, trained_range
+    header.append(header_line(trained_range(cal)))
     muscle, start_note = muscle_at_rest(cal.params)
     dump_params(muscle, args.out, header='\n'.join(header) + start_note)
     out.write(f'wrote {args.out}\n')
