@@ -33,7 +33,7 @@ def add_parser(subparsers):
 def cmd_validate(args, out):
     """Predict the records; print the transfer table; return the exit status."""
     from tca_ros.cli_common import checked_config
-    from tca_ros.diagnosis.calibration import held_strength
+    from tca_ros.diagnosis.conditions import held_strength
     from tca_ros.diagnosis.data import read_record
     from tca_ros.diagnosis.transfer import format_validation, read_trained_range, validate
     from tca_ros.model.params import load_params

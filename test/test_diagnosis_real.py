@@ -103,7 +103,11 @@ def friction_case(tmp_path_factory):
 def test_realistic_hidden_friction_is_found_first_at_its_magnitude(friction_case):
     result = friction_case
     print(format_summary(result))
-    assert (result.effects or result.helpful) == ['friction'], result.explanation
+    # friction leads the ranking; since the heat loss has a physical prior the greedy path
+    # from friction leaves structure and the restart from the runner-up (hysteresis, then
+    # friction) has the lower held-out BIC, so both are said as helpful (the verdict is
+    # unexplained either way: the known limit below)
+    assert 'friction' in (result.effects or result.helpful), result.explanation
     assert result.rounds[0].scores[0].name == 'friction'
     # drawn at 0.0388 N in the plant (realistic_case, seed 33)
     assert result.extended_values['effects.friction_force'] == pytest.approx(0.0388, rel=0.1)
@@ -264,10 +268,10 @@ def test_a_second_thermal_lag_the_calibration_took_as_damping_is_fitted_at_its_t
 
 def test_a_creep_the_calibration_took_as_softness_is_found_by_a_joint_calibration(tmp_path):
     # seed 9014 of bench_diagnosis_real: a cst plant, 20 Hz, no temperature, AR(1) noise,
-    # drift and quantisation; creep of 8.96 mm/N over 50.5 s. Calibrate-first takes the
-    # creep up as a coil seven times too soft (stiffness scale 0.14), and the search, whose
-    # nominal refit is narrow and leaves the stiffness out, named nothing (unexplained).
-    # Creep calibrated jointly with the nominal parameters explains it (docs section 16).
+    # drift and quantisation; creep of 8.96 mm/N over 50.5 s. With start-centred priors
+    # (x/÷ 2 on the stiffness) calibrate-first took the creep up as a coil seven times too
+    # soft (stiffness scale 0.14) and only a joint calibration found it; with the physical
+    # prior (x/÷ 1.5) the stiffness stays plausible and the search names creep itself.
     from tca_ros.diagnosis.realistic import truth_path
     from tca_ros.model.params import load_params
     path, start = realistic_case(9014, ['creep'], str(tmp_path))
@@ -275,7 +279,7 @@ def test_a_creep_the_calibration_took_as_softness_is_found_by_a_joint_calibratio
     result = diagnose(path, start, progress=False)
     print(format_summary(result))
     assert result.verdict == 'explained' and result.effects == ['creep'], result.explanation
-    assert any('calibrated jointly' in n for n in result.notes), result.notes
+    assert result.calibration.report.values['stiffness_scale'] > 1.0 / 3.0
     values = result.extended_values
     assert values['effects.creep_compliance'] == pytest.approx(truth.creep_compliance,
                                                                rel=0.1)

@@ -94,3 +94,36 @@ def test_the_repeat_floor_is_the_mean_of_the_other_repeats():
                                                       ** 2)) / np.percentile(a.displacement,
                                                                              99.5))
     assert np.isnan(floors[3])
+
+
+def test_an_air_flow_is_a_condition_with_its_own_heat_loss_scale():
+    # a filmed muscle's time constant fell 2.8x with a fan: the same muscle at 0.4 and
+    # 0.6 W in still air and at 0.8 W with 2.8x the heat loss, calibrated together
+    from tca_ros.diagnosis.calibration import calibrate
+    start = describe_muscle(SPEC).params
+    fan = start.with_values(**{'thermal.convection_coefficient':
+                               2.8 * start.thermal.convection_coefficient})
+    rng = np.random.default_rng(8)
+    records = [bench_record(start, w, 0.02, rng, drift=0.0) for w in (0.4, 0.6)]
+    forced = bench_record(fan, 0.8, 0.02, rng, drift=0.0)
+    forced.meta['environment'] = 'forced_air'
+    cal = calibrate(records + [forced], start, model='cst', check=False)
+    est = cal.report.estimates['heat_loss_scale.forced_air']
+    assert est.determined and abs(est.value - 2.8) <= max(2.0 * est.stderr, 0.1 * 2.8), est
+    assert cal.environments == {'forced_air': est.value}
+    # the muscle's own heat loss stays the still-air one
+    assert cal.report.values['heat_loss'] == pytest.approx(cal.priors['heat_loss'].prior,
+                                                           rel=0.25)
+
+
+def test_an_environment_the_calibration_never_saw_is_an_extrapolation(files, tmp_path):
+    root, config, paths = files
+    cal = str(root / 'cal.yaml')
+    if not (root / 'cal.yaml').exists():
+        run(['calibrate', paths['a'], paths['b'], '--config', config, '--out', cal,
+             '--model', 'cst', '--quiet'])
+    text = open(paths['b']).read().replace('# tca:', '# environment: forced_air\n# tca:', 1)
+    path = tmp_path / 'fan.csv'
+    path.write_text(text)
+    code, out = run(['validate', str(path), '--config', cal, '--model', 'cst'])
+    assert code == 0 and 'environment forced_air not calibrated' in out, out

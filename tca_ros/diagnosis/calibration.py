@@ -53,6 +53,8 @@ from tca_ros.diagnosis import engine
 from tca_ros.diagnosis.calibration_parameters import apply_calibration, calibration_priors, \
     coil_stiffness, damping_bound, DEFAULT_FIT, EFFECT_PARAMETERS, effect_priors, \
     MAX_DAMPING_RATIO, OPTIONAL_FIT  # noqa: F401 (coil_stiffness, MAX_DAMPING_RATIO: API)
+from tca_ros.diagnosis.conditions import environment_of, environment_priors, \
+    environment_scales, held_strength, in_environment
 from tca_ros.diagnosis.progress import Progress
 from tca_ros.model.kinetostatics import static_elongation
 from tca_ros.model.quasistatic import QuasiStaticPlant
@@ -68,7 +70,6 @@ WARM_START_SAMPLES = 8  # samples of power off at the start needed likewise
 WARM_START_SIGMAS = 4.0  # the fall over them that is no noise, in its standard errors
 WARM_START_MIN_FALL_K = 0.3  # K, and at least this fall (a thermocouple's resolution)
 MIN_CURVATURE_LEVELS = 2  # power levels needed to fit the characteristic's curvature
-HELD_MARGIN = 1.1  # strength taken, x the largest load a record shows the thread held
 POWER_OFF_SHARE = 0.05  # a logged power below this share of its peak is taken as off
 
 
@@ -107,27 +108,6 @@ def starts_warm(record, ambient):
     sigma = noise_sigma(record.temperature) / np.sqrt(quarter)
     return (first > ambient and first - last > WARM_START_MIN_FALL_K
             and first - last > WARM_START_SIGMAS * np.sqrt(2.0) * sigma)
-
-
-def held_strength(params, records):
-    """Return (params, warning or None): the thread's strength raised to what the records held.
-
-    ``fiber.break_force`` (N) is an assumed strength (a preset's, or the paper's 240 g);
-    a record whose load exceeds it shows that this thread held that load, and a
-    recording is evidence, not an input to refuse. The strength is raised to
-    HELD_MARGIN times the largest recorded load (N) and the warning says so.
-    """
-    top = max(float(np.max(r.load)) for r in records)
-    if not top > params.fiber.break_force:
-        return params, None
-    raised = HELD_MARGIN * top
-    name = next((r.source for r in records if float(np.max(r.load)) == top), None) \
-        or 'a record'
-    return params.with_values(**{'fiber.break_force': raised}), (
-        f'warning: {name} carries {top:.4g} N, above the assumed fiber.break_force '
-        f'{params.fiber.break_force:.4g} N, and the thread held: strength taken as '
-        f'{raised:.4g} N ({HELD_MARGIN:g} x the load); give the measured one with '
-        '`tca_sim config new --break-force`')
 
 
 def record_params(params, record):
@@ -195,6 +175,11 @@ class Calibration:
         from tca_ros.diagnosis.physical_priors import plausibility
         fitted = {k: v.value for k, v in self.report.estimates.items()}
         return plausibility(self.priors, fitted, self.start)
+
+    @property
+    def environments(self):
+        """Return {environment: heat-loss scale (-) relative to still air} fitted."""
+        return environment_scales(self.report.values)
 
     def derived(self):
         """Return {name: engine.Estimate} of eq. (1)'s time constant (s) and steady rise (K/W).
@@ -283,14 +268,16 @@ def predictor(start, model, channels, supply='power', corrections=None):
     """
     def predict(values, records):
         params = apply_calibration(start, values)
+        scales = environment_scales(values)
         plants = {}
         out = []
         for r in records:
             mass = float(r.meta.get('mass_kg', start.dynamics.mass))
-            plant = plants.get(mass)
+            key = (mass, environment_of(r))
+            plant = plants.get(key)
             if plant is None:
-                plant = plants[mass] = QuasiStaticPlant(
-                    params.with_values(**{'dynamics.mass': mass}), model=model)
+                plant = plants[key] = QuasiStaticPlant(in_environment(
+                    params.with_values(**{'dynamics.mass': mass}), r, scales), model=model)
             sim = plant.simulate(r.time, r.power, r.load, supply=supply)
             out.append({c: getattr(sim, c) for c in channels})
         if corrections is not None:
@@ -299,27 +286,32 @@ def predictor(start, model, channels, supply='power', corrections=None):
     return predict
 
 
-def full_predictions(params, records, model, channels, supply='power'):
-    """Return per record {channel: array} of the full dynamics (18) with ``params``."""
+def full_predictions(params, records, model, channels, supply='power', scales=None):
+    """Return per record {channel: array} of the full dynamics (18) with ``params``.
+
+    ``scales``: {environment: heat-loss scale} of the records' environments
+    (conditions.py; default: each record in still air).
+    """
     out = []
     for r in records:
         rate = max(MIN_PHYSICS_RATE_HZ, r.sample_rate)
-        sim = simulate(record_params(params, r), r.time, r.power, r.load, model=model,
-                       physics_rate=rate, supply=supply)
+        sim = simulate(in_environment(record_params(params, r), r, scales), r.time, r.power,
+                       r.load, model=model, physics_rate=rate, supply=supply)
         out.append({c: getattr(sim, c) for c in channels})
     return out
 
 
-def defect_corrections(params, records, model, channels, supply='power'):
+def defect_corrections(params, records, model, channels, supply='power', scales=None):
     """Return per record {channel: full dynamics - quasi-static} at ``params``."""
-    full = full_predictions(params, records, model, channels, supply)
-    fast = predictor(params, model, channels, supply)({}, records)
+    full = full_predictions(params, records, model, channels, supply, scales)
+    fast = predictor(params, model, channels, supply)(
+        {f'heat_loss_scale.{k}': v for k, v in (scales or {}).items()}, records)
     return [{c: f[c] - q[c] for c in channels} for f, q in zip(full, fast)]
 
 
-def full_nrmse(params, records, model, supply='power'):
+def full_nrmse(params, records, model, supply='power', scales=None):
     """Return per-record RMSE / peak stroke (-) of the full dynamics (18) with ``params``."""
-    predictions = full_predictions(params, records, model, ['displacement'], supply)
+    predictions = full_predictions(params, records, model, ['displacement'], supply, scales)
     return [normalised_rmse(r, p['displacement']) for r, p in zip(records, predictions)]
 
 
@@ -397,6 +389,9 @@ def calibrate(records, params, model=None, fit=None, progress=False, max_nfev=40
         raise CalibrationError(f"--fit 'initial_temperature_rise': one value cannot stand for "
                                f'the starts of {len(records)} records; fit it on one record')
     priors.update(effect_priors(names, start))
+    environments = environment_priors(records)  # a condition, fitted whatever ``fit`` says
+    priors.update(environments)
+    names += [n for n in environments if n not in names]
     parameters = [priors[n] for n in names if n in priors]
     if not nominal:
         notes.append('power varies beyond on/off: taken as measured, '
@@ -424,7 +419,8 @@ def calibrate(records, params, model=None, fit=None, progress=False, max_nfev=40
         # added, so the result fits the model the user runs, not its reduction
         try:
             corrections = defect_corrections(apply_calibration(start, report.values),
-                                             records, model, channels, supply)
+                                             records, model, channels, supply,
+                                             environment_scales(report.values))
         except (ValueError, ArithmeticError, RuntimeError) as exc:
             notes.append('the full dynamics cannot simulate the first estimate, so it is '
                          f'not defect-corrected ({str(exc).splitlines()[0]})')
@@ -446,7 +442,8 @@ def calibrate(records, params, model=None, fit=None, progress=False, max_nfev=40
         for params, fits, scores in ((start, result.start_fit, result.start_nrmse),
                                      (calibrated, result.fit, result.nrmse)):
             for r, p in zip(records, full_predictions(params, records, model,
-                                                      ['displacement'], supply)):
+                                                      ['displacement'], supply,
+                                                      result.environments)):
                 fits.append(p['displacement'])
                 scores.append(normalised_rmse(r, p['displacement']))
     return result

@@ -8,8 +8,8 @@ import math
 import os
 import time as wallclock
 
-from tca_ros.diagnosis.calibration import held_strength
 from tca_ros.diagnosis.candidates import ABSORBED, absorbed_candidates, parameters_at_bounds
+from tca_ros.diagnosis.conditions import held_strength
 from tca_ros.diagnosis.data import DataError, record_config
 from tca_ros.diagnosis.holdout import AUTO, choose_validation, DEFAULT_VALIDATION
 from tca_ros.diagnosis.joint import beats_nominal, family_rival_notes, joint_extension, \

@@ -13,6 +13,7 @@ import json
 import numpy as np
 
 from tca_ros.diagnosis.calibration import full_predictions, normalised_rmse, predictor
+from tca_ros.diagnosis.conditions import environment_of, SCALE_PREFIX, STILL_AIR
 from tca_ros.diagnosis.lumped import fit_lumped, predict_lumped
 from tca_ros.diagnosis.validation import condition_of, repeat_floor
 
@@ -27,9 +28,10 @@ def rig_of(record):
     return str(record.meta.get('rig', 'dead_weight')).strip()
 
 
-def peak_temperatures(params, records, model, supply='power'):
+def peak_temperatures(params, records, model, supply='power', scales=None):
     """Return per record the hottest predicted temperature (degC), quasi-static."""
-    sims = predictor(params, model, ['temperature'], supply)({}, records)
+    values = {SCALE_PREFIX + k: v for k, v in (scales or {}).items()}
+    sims = predictor(params, model, ['temperature'], supply)(values, records)
     return [float(np.max(s['temperature'])) for s in sims]
 
 
@@ -44,8 +46,9 @@ def trained_range(cal):
     return {'power_w': [float(np.max(r.power)) for r in records],
             'load_n': [float(np.max(r.load)) for r in records],
             'rig': sorted({rig_of(r) for r in records}),
+            'environment': {STILL_AIR: 1.0, **cal.environments},
             'peak_temperature_c': max(peak_temperatures(cal.params, records, cal.model,
-                                                        cal.supply)),
+                                                        cal.supply, cal.environments)),
             'lumped': {k: float(lumped[k]) for k in ('gain', 'tau', 'delay')},
             'records': [r.source for r in records]}
 
@@ -80,6 +83,9 @@ def extrapolation(record, trained, peak_temperature):
     low, high = min(trained['load_n']), max(trained['load_n'])
     if load > LOAD_MARGIN * high or load < low / LOAD_MARGIN:
         out.append(f'load {load:.3g} N outside the calibrated {low:.3g}-{high:.3g} N')
+    if environment_of(record) not in trained.get('environment', {STILL_AIR: 1.0}):
+        out.append(f'environment {environment_of(record)} not calibrated (its heat loss is '
+                   'taken as in still air)')
     if rig_of(record) not in trained['rig']:
         out.append(f'rig {rig_of(record)} not calibrated ({", ".join(trained["rig"])})')
     top = trained.get('peak_temperature_c')
@@ -108,12 +114,13 @@ def validate(records, params, model, trained=None, supply='power'):
     it the lumped model is fitted on ``records`` themselves (an optimistic
     baseline, said by the caller) and nothing is flagged as extrapolated.
     """
-    sims = full_predictions(params, records, model, ['displacement'], supply)
+    scales = trained.get('environment') if trained else None
+    sims = full_predictions(params, records, model, ['displacement'], supply, scales)
     lumped = trained['lumped'] if trained else fit_lumped(records).values
     lumped_sims = predict_lumped(lumped, records)
     floors = repeat_floor(records)
-    peaks = peak_temperatures(params, records, model, supply) if trained else [0.0] * len(
-        records)
+    peaks = peak_temperatures(params, records, model, supply, scales) if trained else \
+        [0.0] * len(records)
     rows = []
     for r, s, ls, floor, peak in zip(records, sims, lumped_sims, floors, peaks):
         rows.append(Transfer(r.source, condition_of(r),

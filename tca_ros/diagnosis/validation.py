@@ -55,7 +55,7 @@ def leave_one_condition_out(records, params, model=None, progress=False, supply=
         cal = calibrate(train, params, model=model, progress=progress, check=False,
                         supply=supply, fit=fit)
         calibrations[cond] = cal
-        calibrated = full_nrmse(cal.params, test, cal.model, supply)
+        calibrated = full_nrmse(cal.params, test, cal.model, supply, cal.environments)
         start = full_nrmse(cal.start, test, cal.model, supply)
         lumped = lumped_nrmse(fit_lumped(train).values, test)
         for r, a, b, c in zip(test, calibrated, start, lumped):
