@@ -127,3 +127,32 @@ def test_an_environment_the_calibration_never_saw_is_an_extrapolation(files, tmp
     path.write_text(text)
     code, out = run(['validate', str(path), '--config', cal, '--model', 'cst'])
     assert code == 0 and 'environment forced_air not calibrated' in out, out
+
+
+def test_an_isotonic_calibration_predicts_the_force_of_an_isometric_rig(files, tmp_path):
+    # the same truth clamped at its length under a 1 g pretension (the full rig dynamics),
+    # logged as an isometric rig logs it: time, power, force and a '# rig: isometric' header
+    from tca_ros.model.rig_simulation import simulate_rig
+    root, config, paths = files
+    cal = str(root / 'cal_iso.yaml')
+    assert run(['calibrate', paths['a'], paths['b'], paths['c'], '--config', config,
+                '--out', cal, '--model', 'cst', '--quiet'])[0] == 0
+    start = describe_muscle(SPEC).params
+    c2, _, c0 = start.fiber.gamma_coefficients
+    truth = start.with_values(**{'effects.second_thermal_lag': 4.0,
+                                 'fiber.gamma_coefficients': [c2, 40.0 * c2, c0],
+                                 'rig.mode': 'isometric', 'rig.pretension': 0.00981})
+    t = np.arange(0.0, 60.0, 0.2)
+    p = np.where((t >= 10.0) & (t < 35.0), 0.4, 0.0)
+    force = simulate_rig(truth, t, p, model='cst', physics_rate=500.0).columns['force']
+    force = force + 2e-4 * np.random.default_rng(1).standard_normal(t.size)
+    path = tmp_path / 'iso.csv'
+    path.write_text('# tca: free_stroke\n# mass_kg: 0.001\n# sample_rate_hz: 5\n'
+                    '# rig: isometric\n# pretension_n: 0.00981\ntime,power,force\n'
+                    + ''.join(f'{a:.3f},{b:.4f},{c:.6f}\n' for a, b, c in zip(t, p, force)))
+    code, text = run(['validate', str(path), '--config', cal, '--model', 'cst'])
+    assert code == 0, text
+    row = next(line.split() for line in text.splitlines() if line.startswith('iso.csv'))
+    assert float(row[3].rstrip('%')) < 10.0, text  # the force rise, from displacement only
+    assert row[4] == '-'  # a lumped power-to-contraction model has no force to give
+    assert 'rig isometric not calibrated' in text

@@ -13,10 +13,12 @@ CSV layout (SI units, temperatures in degC)::
 (m, contraction from the state at the start of the record, which begins at
 ambient) are required; ``temperature`` (degC), ``resistance`` (ohm) and ``force``
 (N, tensile, a gauge in series: the isometric and spring rigs, docs/rigs.md) are
-optional; ``force`` is read, not yet fitted. A rosbag2 recording of the node's own
-topics (``power_cmd``, ``load``, ``displacement``, ``temperature``; any namespace) is
-read by ``read_bag_record`` (data_bag.py) and resampled onto a uniform grid;
-``read_record`` picks the reader by file type. Every malformed input raises
+optional; a record whose header says ``# rig: isometric`` needs only ``time``,
+``power`` and ``force`` (its load is ``# pretension_n:`` or the first force).
+A rosbag2 recording of the node's own topics (``power_cmd``, ``load``,
+``displacement``, ``temperature``; any namespace) is read by ``read_bag_record``
+(data_bag.py) and resampled onto a uniform grid; ``read_record`` picks the reader
+by file type. Every malformed input raises
 ``DataError`` with one line naming the file, the row (1-based line number) and the
 column. ``Record``, ``DataError`` and the value bounds are defined in record.py and
 importable from here too.
@@ -37,6 +39,10 @@ from tca_ros.model.params import SPECS
 
 REQUIRED_COLUMNS = ('time', 'power', 'load', 'displacement')
 OPTIONAL_COLUMNS = ('temperature', 'resistance', 'force')
+#: a record with '# rig: isometric' needs only these: the clamp holds the length (the
+#: displacement is 0 when absent) and the load is the pretension ('# pretension_n: N',
+#: else the first force)
+ISOMETRIC_COLUMNS = ('time', 'power', 'force')
 REQUIRED_HEADER = ('tca', 'mass_kg', 'sample_rate_hz')
 JITTER_TOLERANCE = 0.01  # relative spread of sample intervals accepted as uniform
 RATE_TOLERANCE = 0.05  # relative mismatch allowed between sample_rate_hz and the time column
@@ -180,7 +186,7 @@ def read_csv_record(path, max_samples=None):
         if columns is None:
             columns = [c.strip() for c in text.split(',')]
             header_row = number
-            _check_columns(columns, path, number)
+            _check_columns(columns, path, number, meta.get('rig'))
             continue
         cells = text.split(',')
         if len(cells) != len(columns):
@@ -201,6 +207,12 @@ def read_csv_record(path, max_samples=None):
     data = {c: values[:, i] for i, c in enumerate(columns)}
     _check_values(data, row_numbers, path)
     _check_span(data['time'], float(meta['sample_rate_hz']), row_numbers, path, max_samples)
+    if 'displacement' not in data:  # an isometric rig: the clamp holds the length
+        data['displacement'] = np.zeros_like(data['time'])
+    if 'load' not in data:  # the isometric rig's load is its pretension
+        pretension = meta.get('pretension_n', data['force'][0])
+        data['load'] = np.full_like(data['time'], parse_number(
+            str(pretension), path, meta_rows.get('pretension_n', 1), 'pretension_n'))
     record = Record(time=data['time'] - data['time'][0], power=data['power'],
                     load=data['load'], displacement=data['displacement'],
                     temperature=data.get('temperature'), resistance=data.get('resistance'),
@@ -209,8 +221,9 @@ def read_csv_record(path, max_samples=None):
     return uniform_record(record)
 
 
-def _check_columns(columns, path, row):
+def _check_columns(columns, path, row, rig=None):
     known = REQUIRED_COLUMNS + OPTIONAL_COLUMNS
+    required = ISOMETRIC_COLUMNS if str(rig).strip() == 'isometric' else REQUIRED_COLUMNS
     for c in columns:
         if c not in known:
             raise DataError(f'{path}: row {row}, column {clip(c)!r}: unknown column (known: '
@@ -218,7 +231,7 @@ def _check_columns(columns, path, row):
     if len(set(columns)) != len(columns):
         dup = next(c for c in columns if columns.count(c) > 1)
         raise DataError(f'{path}: row {row}, column {dup!r}: column appears twice')
-    for c in REQUIRED_COLUMNS:
+    for c in required:
         if c not in columns:
             raise DataError(f'{path}: row {row}, column {c!r}: required column missing')
 

@@ -12,10 +12,13 @@ import json
 
 import numpy as np
 
-from tca_ros.diagnosis.calibration import full_predictions, normalised_rmse, predictor
-from tca_ros.diagnosis.conditions import environment_of, SCALE_PREFIX, STILL_AIR
+from tca_ros.diagnosis.calibration import full_predictions, MIN_PHYSICS_RATE_HZ, \
+    normalised_rmse, predictor
+from tca_ros.diagnosis.conditions import environment_of, in_environment, SCALE_PREFIX, \
+    STILL_AIR
 from tca_ros.diagnosis.lumped import fit_lumped, predict_lumped
 from tca_ros.diagnosis.validation import condition_of, repeat_floor
+from tca_ros.model.rig_simulation import simulate_rig
 
 HEADER_KEY = 'calibrated_on'  # params-file header line written by `tca_sim calibrate`
 POWER_MARGIN = 1.05  # a power this far past the trained ones is an extrapolation
@@ -26,6 +29,37 @@ TEMPERATURE_MARGIN_K = 10.0  # K past the hottest trained prediction
 def rig_of(record):
     """Return the record's rig ('dead_weight' unless its header says otherwise)."""
     return str(record.meta.get('rig', 'dead_weight')).strip()
+
+
+def measured(record):
+    """Return (what the record's rig measures: displacement m or force N, its name)."""
+    if rig_of(record) == 'isometric':
+        return record.force - record.force[0], 'force'
+    return record.displacement, 'displacement'
+
+
+def rig_prediction(params, record, model, scales=None):
+    """Return the full-dynamics prediction (m or N) of what the record's rig measures.
+
+    Isotonic (a hanging mass): the contraction; isometric (clamped at its length
+    under the record's pretension, N): the force rise above the pretension.
+    """
+    rate = max(MIN_PHYSICS_RATE_HZ, record.sample_rate)
+    if rig_of(record) == 'isometric':
+        p = in_environment(params.with_values(**{
+            'rig.mode': 'isometric', 'rig.pretension': float(record.load[0])}), record, scales)
+        force = simulate_rig(p, record.time, record.power, model=model,
+                             physics_rate=rate).columns['force']
+        return force - force[0]
+    return full_predictions(params, [record], model, ['displacement'], 'power',
+                            scales)[0]['displacement']
+
+
+def rig_nrmse(record, prediction):
+    """Return RMSE / peak measured response (-) of the record's measured channel."""
+    values, _ = measured(record)
+    peak = max(float(np.percentile(values, 99.5)), 1e-9)
+    return float(np.sqrt(np.mean((values - prediction) ** 2))) / peak
 
 
 def peak_temperatures(params, records, model, supply='power', scales=None):
@@ -115,17 +149,21 @@ def validate(records, params, model, trained=None, supply='power'):
     baseline, said by the caller) and nothing is flagged as extrapolated.
     """
     scales = trained.get('environment') if trained else None
-    sims = full_predictions(params, records, model, ['displacement'], supply, scales)
-    lumped = trained['lumped'] if trained else fit_lumped(records).values
-    lumped_sims = predict_lumped(lumped, records)
-    floors = repeat_floor(records)
+    if supply != 'power':
+        raise ValueError(f'supply = {supply!r}: validate predicts a delivered power only')
+    isotonic = [r for r in records if rig_of(r) != 'isometric']
+    lumped = trained['lumped'] if trained else (fit_lumped(isotonic).values if isotonic
+                                                else None)
+    floors = repeat_floor(records, channel=lambda r: measured(r)[0])
     peaks = peak_temperatures(params, records, model, supply, scales) if trained else \
         [0.0] * len(records)
     rows = []
-    for r, s, ls, floor, peak in zip(records, sims, lumped_sims, floors, peaks):
-        rows.append(Transfer(r.source, condition_of(r),
-                             normalised_rmse(r, s['displacement']),
-                             normalised_rmse(r, ls['displacement']), floor,
+    for r, floor, peak in zip(records, floors, peaks):
+        physics = rig_nrmse(r, rig_prediction(params, r, model, scales))
+        # the lumped model maps power to contraction: it has nothing to say of a force
+        base = normalised_rmse(r, predict_lumped(lumped, [r])[0]['displacement']) \
+            if rig_of(r) != 'isometric' and lumped else float('nan')
+        rows.append(Transfer(r.source, condition_of(r), physics, base, floor,
                              extrapolation(r, trained, peak) if trained else []))
     return rows
 
@@ -137,13 +175,16 @@ def format_validation(rows, lumped_label='lumped'):
     for h in rows:
         name = (h.source or '?').rsplit('/', 1)[-1][-36:]
         floor = f'{h.floor:>8.1%}' if h.floor == h.floor else f'{"-":>8s}'
+        lumped = f'{h.lumped:>9.1%}' if h.lumped == h.lumped else f'{"-":>9s}'
         lines.append(f'{name:<38s}{h.condition[0]:>7.2f}{h.condition[1]:>10.3f}'
-                     f'{h.physics:>9.1%}{h.lumped:>9.1%}{floor}')
+                     f'{h.physics:>9.1%}{lumped}{floor}')
         lines += [f'  warning: extrapolates: {w}' for w in h.warnings]
     floors = [h.floor for h in rows if h.floor == h.floor]
+    lumps = [h.lumped for h in rows if h.lumped == h.lumped]
     lines.append(f'{"median":<55s}{np.median([h.physics for h in rows]):>9.1%}'
-                 f'{np.median([h.lumped for h in rows]):>9.1%}'
+                 + (f'{np.median(lumps):>9.1%}' if lumps else f'{"-":>9s}')
                  + (f'{np.median(floors):>8.1%}' if floors else f'{"-":>8s}'))
-    lines.append('nRMSE = RMSE / peak measured stroke; floor: each record predicted by the '
-                 'mean of its repeats (no model of one muscle does better)')
+    lines.append('nRMSE = RMSE / peak measured response (stroke, or force rise on an '
+                 'isometric rig); floor: each record predicted by the mean of its repeats '
+                 '(no model of one muscle does better)')
     return '\n'.join(lines)

@@ -79,21 +79,25 @@ def format_table(rows):
     return '\n'.join(lines)
 
 
-def repeat_floor(records):
+def repeat_floor(records, channel=None):
     """Return per record the nRMSE (-) of the mean of its repeats; nan without repeats.
 
     The repeats of a record are the other records at its condition (condition_of),
     each interpolated onto its time grid (s) and averaged: what a model that knew
     the condition's mean response exactly would score. Different muscles and
     their history make repeats differ; no model of one muscle does better.
+    ``channel(record)``: the measured array compared (default the displacement, m);
+    the score is RMSE / its peak.
     """
-    from tca_ros.diagnosis.calibration import normalised_rmse
+    channel = channel or (lambda r: r.displacement)
     out = []
     for r in records:
-        others = [o for o in records if o is not r and condition_of(o) == condition_of(r)]
+        others = [o for o in records if o is not r and condition_of(o) == condition_of(r)
+                  and getattr(o, 'meta', {}).get('rig') == getattr(r, 'meta', {}).get('rig')]
         if not others:
             out.append(float('nan'))
             continue
-        mean = np.mean([np.interp(r.time, o.time, o.displacement) for o in others], axis=0)
-        out.append(normalised_rmse(r, mean))
+        mean = np.mean([np.interp(r.time, o.time, channel(o)) for o in others], axis=0)
+        peak = max(float(np.percentile(channel(r), 99.5)), 1e-9)
+        out.append(float(np.sqrt(np.mean((channel(r) - mean) ** 2))) / peak)
     return out
