@@ -151,8 +151,20 @@ class CliParser(argparse.ArgumentParser):
 
     def parse_known_args(self, args=None, namespace=None):
         """Parse; refuse unknown arguments here, where the subcommand is known."""
-        namespace, extras = super().parse_known_args(args, namespace)
         commands = self._commands
+        args = sys.argv[1:] if args is None else list(args)
+        if commands is None:  # a flag that is not ours is named before any other problem
+            unknown = []
+            for arg in args:
+                if arg == '--':
+                    break
+                if (arg.startswith('-') and arg != '-'
+                        and not self._negative_number_matcher.match(arg)
+                        and arg.split('=', 1)[0] not in self._option_string_actions):
+                    unknown.append(arg)
+            if unknown:
+                self.error(f'unrecognized arguments: {" ".join(unknown)}')
+        namespace, extras = super().parse_known_args(args, namespace)
         if commands is None and extras:
             self.error(f'unrecognized arguments: {" ".join(extras)}')
         if commands is not None and getattr(namespace, commands.dest, None) is None:

@@ -133,7 +133,7 @@ def _score_in_process(args, tasks):
     model = args.model or params.model
     factory = law_controller(lambda: PidController(**gains))
     power = min(gains['max_power'], MAX_POWER)
-    source = (f"tca_pid max_power; driver {MAX_POWER:g} W" if gains['max_power'] < MAX_POWER
+    source = (f'tca_pid max_power; driver {MAX_POWER:g} W' if gains['max_power'] < MAX_POWER
               else f'driver max_power; tca_pid {gains["max_power"]:g} W')
     runs = []
     for task in tasks:

@@ -38,7 +38,7 @@ def add_parser(subparsers, common):
     sp = subparsers.add_parser(
         'simulate', help='dynamics for a power (W) / load (N) profile CSV',
         description='Simulate the muscle on its rig for a profile of power (W) and load '
-                    '(N) held between rows; print CSV of the rig\'s columns (dead weight: '
+                    '(N) held between rows; print CSV of the columns of the rig (dead weight: '
                     'time,power,load,displacement,temperature,resistance; s, W, N, m, '
                     'degC, ohm) at --rate.', epilog=EXAMPLE)
     common(sp)
