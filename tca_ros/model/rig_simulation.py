@@ -95,7 +95,7 @@ def simulate_rig(params, time, power, load=None, power_2=None, model=None,
 
 
 def _dead_weight(res):
-    """The RigResult of a dead-weight SimulationResult."""
+    """Return the RigResult of a dead-weight SimulationResult."""
     return RigResult(DEAD_WEIGHT, {'time': res.time, 'power': res.power, 'load': res.load,
                                    'displacement': res.displacement,
                                    'temperature': res.temperature,

@@ -73,7 +73,7 @@ def simulate(params, time, power, load=None, model=None, physics_rate=1000.0,
     out[:, 0] = _sample(state)
 
     def result(n):
-        """The first n samples as a SimulationResult."""
+        """Return the first n samples as a SimulationResult."""
         x = out[:, :n].copy()
         if params.thermal.initial_temperature_rise > 0.0 and n > 0:
             x[0], x[5] = read_from_start(x[0], x[5])
