@@ -32,7 +32,7 @@ def add_parser(subparsers):
     sp.add_argument('--force', action='store_true', help='overwrite --out if it exists')
     sp.add_argument('--fit', default='',
                     help='comma-separated calibration parameters to fit (default: '
-                         + ','.join(DEFAULT_FIT) + ', and initial_temperature_rise on one '
+                         + ', '.join(DEFAULT_FIT) + ', and initial_temperature_rise on one '
                          'record whose logged temperature falls before any power); also '
                          'friction_force, initial_temperature_rise or a catalogue effect '
                          'parameter (e.g. effects.creep_compliance), fitted with the '
