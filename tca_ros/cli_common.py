@@ -139,7 +139,7 @@ class CliParser(argparse.ArgumentParser):
 
     def __init__(self, *args, **kwargs):
         kwargs['allow_abbrev'] = False
-        kwargs.setdefault('formatter_class', HelpFormatter)
+        kwargs['formatter_class'] = HelpFormatter  # every subcommand's help alike
         super().__init__(*args, **kwargs)
         self._commands = None
 
