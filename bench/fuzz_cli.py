@@ -498,7 +498,8 @@ def _same_record(path, intact):
 
 
 def table(results, wall, skipped):
-    cols = ['cases', 'exit 0', 'exit 1', 'exit 2', 'other', 'traceback', 'internal',
+    # exit 3: a simulate run ended on a physical event (thread broke or melted), rows kept
+    cols = ['cases', 'exit 0', 'exit 1', 'exit 2', 'exit 3', 'other', 'traceback', 'internal',
             'hang', 'not 1 line', 'long err', 'NaN ok', 'max MB', 'max s', 'max cpu s']
     print(f'{"family":<13}' + ''.join(f'{c:>11}' for c in cols))
     groups = collections.defaultdict(list)
@@ -509,8 +510,8 @@ def table(results, wall, skipped):
         if not rows:
             continue
         codes = collections.Counter(r['code'] for r in rows)
-        vals = [len(rows), codes[0], codes[1], codes[2],
-                len(rows) - codes[0] - codes[1] - codes[2] - codes['hang'],
+        vals = [len(rows), codes[0], codes[1], codes[2], codes[3],
+                len(rows) - codes[0] - codes[1] - codes[2] - codes[3] - codes['hang'],
                 sum(r['traceback'] for r in rows), sum(r['internal'] for r in rows),
                 codes['hang'], sum(r['not_one_line'] for r in rows),
                 sum(r['long_err'] for r in rows), sum(r['nan_ok'] for r in rows),

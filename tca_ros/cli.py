@@ -1,12 +1,14 @@
 """`tca_sim`: statics, dynamics, diagnosis and benchmarks of a TCA from the shell.
 
-Exit status: 0 ok, 1 a solver or fit failed, 2 bad input (one-line message on
-stderr naming the file, row, column or parameter, the value and what is allowed).
-Work is bounded before it starts: a request needing more samples or physics steps
-than ``--max-samples`` / ``--max-steps`` allow is refused with exit status 2.
+Exit status: 0 ok, 1 a solver or fit failed, 2 bad input or usage (one-line message
+on stderr naming the subcommand, and the file, row, column, flag or parameter, the
+value and what is allowed), 3 a `simulate` run ended on a physical event (the thread
+broke or melted: the rows before it are written, then one error line). Work is
+bounded before it starts: a request needing more samples or physics steps than
+``--max-samples`` / ``--max-steps`` allow is refused with exit status 2. Flags are
+never abbreviated. A value printed outside the model's valid range (e.g. ``statics
+--tmax`` past the melt) comes with a one-line warning on stderr.
 """
-import argparse
-import math
 import os
 import sys
 import time as wallclock
@@ -14,61 +16,49 @@ import warnings
 
 import numpy as np
 
-from tca_ros.cli_common import checked_config, count, EXIT_BAD_INPUT, EXIT_FAILED, EXIT_OK, \
-    finite_float, InputError, MAX_OUTPUT_SAMPLES
-from tca_ros.cli_profile import PROFILE_COLUMNS, read_profile, read_profile_columns, \
-    resample_hold  # noqa: F401 (read_profile: tca_ros.cli's API)
+from tca_ros.cli_common import check_finite, CliParser, count, EXIT_BAD_INPUT, \
+    EXIT_FAILED, EXIT_OK, finite_float, InputError, MESSAGE_CHARS, package_version, \
+    params_from_args as _params, warn
+from tca_ros.cli_profile import read_profile  # noqa: F401 (tca_ros.cli's API)
+from tca_ros.cli_simulate import MAX_SIM_STEPS, RIG_PROFILE_COLUMNS  # noqa: F401 (API)
 from tca_ros.diagnosis.data import ABSOLUTE_ZERO_DEGC, clip, DataError, MAX_LOAD_N, \
     MAX_POWER_W, MAX_TEMPERATURE_DEGC  # noqa: F401 (MAX_POWER_W: the limit cli users see)
-from tca_ros.model.params import GRAVITY, load_params, MODELS, ParameterError, RIG_MODES
+from tca_ros.model.params import GRAVITY, MODELS, ParameterError
 
-# Work limits, overridable per run with --max-samples / --max-steps. `simulate` with cst
-# ran 300 k physics steps in 10-13 s on a loaded 2-core machine (load average 3.6), so
-# its limit stays under the 30 s a caller may take for a hang. A diagnosis costs CPU
+# Work limits, overridable per run with --max-samples / --max-steps (simulate's:
+# cli_simulate.MAX_SIM_STEPS). A diagnosis costs CPU
 # time in proportion to its record-rate steps plus a fixed part (rod tables, ~600
 # simulations): the shipped 240 s example at 200 Hz physics (48 k steps, rod model)
 # took 246 s of CPU and 825 simulations; a 3 s record 4-20 s with cst, 11-84 s with the
 # rod model. At the 100 k steps of cli_diagnose.MAX_DIAGNOSE_STEPS that is about 8-9 min of CPU
 # with the rod model (measured under load average ~15; a quiet machine is faster).
-MAX_SIM_STEPS = 300_000  # physics steps of one `simulate` run (5 min at 1 kHz)
 MAX_TEMPERATURES = 10_000  # statics rows of a helix (each a nonlinear solve): 13 s CPU
 # A conical TCA's statics solves one rod shape per temperature, about 0.11 s of CPU each
 # (101 temperatures: 13.6 s on the 2-core machine), so its default limit is far lower.
 MAX_CONICAL_SHAPES = 250
-MESSAGE_CHARS = 400  # an error line is cut here: never echo megabytes of input
 CHECKED_COMMANDS = ('statics', 'simulate', 'diagnose')  # outputs checked finite, so
 # numpy's RuntimeWarnings (multi-line, on stderr) are silenced for them
 
 
-class CliParser(argparse.ArgumentParser):
-    """ArgumentParser whose usage errors are one line (exit status 2)."""
-
-    def error(self, message):
-        """Print ``prog: error: message`` on one line (cut) and exit with status 2."""
-        line = ' '.join(str(message).split())
-        self.exit(EXIT_BAD_INPUT, f'{self.prog}: error: {clip(line, MESSAGE_CHARS)}\n')
-
-
 # -- subcommands ---------------------------------------------------------------------
-def _params(args):
-    overrides = {'model': args.model} if getattr(args, 'model', None) else {}
-    if getattr(args, 'rig', None):
-        overrides['rig.mode'] = args.rig
-    return load_params(checked_config(args.config), **overrides)
+def range_warning(params, tmin, tmax):
+    """Return a one-line warning when [tmin, tmax] (degC) leaves the model's range, or ''.
 
-
-def check_finite(columns, where, unit):
-    """Raise ValueError (exit 1) naming the first non-finite value of ``columns``.
-
-    ``columns`` maps a name to an array, ``where`` holds the row coordinates in
-    ``unit``. Output that is not finite is never printed.
+    The range is limits.temperature_range: from 20 K under the ambient (the fiber
+    never cools below the air) to the melt of nylon 6,6 (260 degC).
     """
-    for name, values in columns.items():
-        values = np.asarray(values, dtype=float)
-        bad = np.flatnonzero(~np.isfinite(values))
-        if bad.size:
-            raise ValueError(f'the model left its valid range: {name} is {values[bad[0]]!r} '
-                             f'at {where[bad[0]]:g} {unit}')
+    from tca_ros.model.limits import temperature_range
+    low, high = temperature_range(params)
+    parts = []
+    if tmax > high:
+        parts.append(f'--tmax = {tmax:g} degC is past the melt of the thread ({high:g} degC): '
+                     f'the rows above {high:g} degC describe no muscle')
+    if tmin < low:
+        parts.append(f'--tmin = {tmin:g} degC is more than 20 K below the ambient: the rows '
+                     f'below {low:g} degC are extrapolated')
+    if not parts:
+        return ''
+    return f"{'; '.join(parts)} (the model's temperature range is {low:g} to {high:g} degC)"
 
 
 def cmd_statics(args, out):
@@ -107,6 +97,7 @@ def cmd_statics(args, out):
     # coil.crept_reference: the reference is the one crept under this weight (Sec. V-D1)
     disp = static_displacement(crept_under(p, load), load, temps)
     check_finite({'displacement': disp}, temps, 'degC')
+    _warn_range(p, args)
     out.write('temperature,displacement\n')
     for temp, x in zip(temps, disp):
         out.write(f'{temp:.6g},{x:.9g}\n')
@@ -121,12 +112,19 @@ def _conical_statics(p, temps, load, args, out):
                          '(Love and CST assume a uniform helix)')
     shapes = conical_shapes(p, temps, load=load)
     check_finite({'end height': [xyz[2, -1] for _, xyz in shapes]}, temps, 'degC')
+    _warn_range(p, args)
     out.write('temperature,end_height\n')
     for temp, (_, xyz) in zip(temps, shapes):
         out.write(f'{temp:.6g},{xyz[2, -1]:.9g}\n')
     if args.shape:
         write_shapes(args.shape, temps, shapes)
     return EXIT_OK
+
+
+def _warn_range(params, args):
+    text = range_warning(params, args.tmin, args.tmax)
+    if text:
+        warn('statics', text)
 
 
 def write_shapes(path, temps, shapes):
@@ -162,50 +160,6 @@ def write_shapes(path, temps, shapes):
     fig.tight_layout()
     fig.savefig(os.path.splitext(path)[0] + '.png', dpi=110)
     plt.close(fig)
-
-
-#: Profile columns per load rig (rig.mode; docs/rigs.md).
-RIG_PROFILE_COLUMNS = {'dead_weight': PROFILE_COLUMNS, 'spring': PROFILE_COLUMNS,
-                       'isometric': ('time', 'power'),
-                       'antagonistic': ('time', 'power', 'power_2')}
-
-
-def cmd_simulate(args, out):
-    """Print the CSV of the rig's columns (dead weight: time,power,load,...) for a profile."""
-    from tca_ros.model.rig_simulation import RIG_COLUMNS, simulate_rig
-    for name, value in (('--rate', args.rate), ('--physics-rate', args.physics_rate)):
-        if not value > 0.0:
-            raise InputError(f'{name} = {value:g}: must be a positive rate in Hz')
-    p = _params(args)
-    columns = read_profile_columns(args.input, max_rows=args.max_samples + 1000,
-                                   allowed=RIG_PROFILE_COLUMNS[p.rig.mode])
-    t_in = columns['time']
-    span = t_in[-1] - t_in[0]
-    samples = span * args.rate + 1.0
-    steps = span * max(args.rate, args.physics_rate)
-    if not samples <= args.max_samples:
-        raise InputError(f'{args.input}: {span:.4g} s at --rate {args.rate:g} Hz is '
-                         f'{samples:.4g} samples; the limit is {args.max_samples} '
-                         '(--max-samples)')
-    if not steps <= args.max_steps:
-        raise InputError(f'{args.input}: {span:.4g} s at --physics-rate '
-                         f'{max(args.rate, args.physics_rate):g} Hz is {steps:.4g} physics '
-                         f'steps; the limit is {args.max_steps} (--max-steps)')
-    n = int(math.floor(span * args.rate + 1e-9)) + 1
-    t = t_in[0] + np.arange(n) / args.rate
-    if n > 1 and not np.all(np.diff(t) > 0.0):
-        raise InputError(f"{args.input}: column 'time': {t_in[0]:g} s is too large for "
-                         f'steps of 1/{args.rate:g} s (they vanish in rounding)')
-    held = {name: resample_hold(t_in, values, t) for name, values in columns.items()
-            if name != 'time'}
-    res = simulate_rig(p, t, held['power'], held.get('load'), held.get('power_2'),
-                       physics_rate=args.physics_rate)
-    names = RIG_COLUMNS[p.rig.mode]
-    check_finite({name: res.columns[name] for name in names[1:]}, t, 's')
-    out.write(','.join(names) + '\n')
-    for row in zip(*(res.columns[name] for name in names)):
-        out.write(','.join(f'{v:.9g}' for v in row) + '\n')
-    return EXIT_OK
 
 
 def cmd_bench(args, out):
@@ -253,12 +207,24 @@ def cmd_demo(args, out):
 
 
 # -- parser ---------------------------------------------------------------------------
+STATICS_EXAMPLE = """example (the free-stroke TCA under 30 g, 25 to 160 degC):
+  tca_sim statics --config free_stroke --mass 0.03 --tmin 25 --tmax 160 --tstep 5
+
+A temperature range past the melt (260 degC) or far below the ambient is printed with a
+one-line warning on stderr."""
+BENCH_EXAMPLE = """example (2 s of simulated time per model):
+  tca_sim bench --config self_coiled --seconds 2"""
+DEMO_EXAMPLE = """example (statics and dynamics only, no ROS node):
+  tca_sim demo --config free_stroke --out out --no-node"""
+
+
 def build_parser():
     """Return the argparse parser of `tca_sim`."""
-    fmt = argparse.ArgumentDefaultsHelpFormatter
     parser = CliParser(prog='tca_sim', description=__doc__.splitlines()[0],
-                       formatter_class=fmt)
-    sub = parser.add_subparsers(dest='command', required=True)
+                       epilog='`tca_sim COMMAND --help` describes a command, with an example.')
+    parser.add_argument('--version', action='version',
+                        version=f'%(prog)s {package_version()} (tca_ros)')
+    sub = parser.add_subparsers(dest='command', metavar='COMMAND')
 
     def common(sp, model=True):
         sp.add_argument('--config', default='free_stroke',
@@ -268,8 +234,12 @@ def build_parser():
             sp.add_argument('--model', choices=MODELS, default=None,
                             help="kinetostatic model (default: the config's model)")
 
-    sp = sub.add_parser('statics', formatter_class=fmt,
-                        help='displacement (m) vs temperature (degC) under a hanging mass')
+    sp = sub.add_parser(
+        'statics', help='displacement (m) vs temperature (degC) under a hanging mass',
+        description='Print CSV temperature,displacement (degC, m): the loaded equilibrium '
+                    'contraction from --tmin under a hanging mass; a conical TCA prints '
+                    'temperature,end_height (m) and can write its shapes (--shape).',
+        epilog=STATICS_EXAMPLE)
     common(sp)
     sp.add_argument('--mass', type=finite_float, default=None,
                     help="hanging mass (kg); default: the config's dynamics.load / g")
@@ -284,26 +254,14 @@ def build_parser():
                          f'default {MAX_TEMPERATURES}, conical {MAX_CONICAL_SHAPES})')
     sp.set_defaults(func=cmd_statics)
 
-    sp = sub.add_parser('simulate', formatter_class=fmt,
-                        help='dynamics for a power (W) / load (N) profile CSV')
-    common(sp)
-    sp.add_argument('--input', required=True,
-                    help='CSV with columns time,power[,load] (W, N); isometric rig: '
-                         'time,power; antagonistic rig: time,power[,power_2] (docs/rigs.md)')
-    sp.add_argument('--rig', choices=RIG_MODES, default=None,
-                    help="load rig (default: the config's rig.mode; its parameters rig.* "
-                         'come from the config)')
-    sp.add_argument('--rate', type=finite_float, default=100.0, help='output sample rate (Hz)')
-    sp.add_argument('--physics-rate', type=finite_float, default=1000.0,
-                    help='physics step rate (Hz)')
-    sp.add_argument('--max-samples', type=count, default=MAX_OUTPUT_SAMPLES,
-                    help='refuse runs of more output samples (limit on memory and time)')
-    sp.add_argument('--max-steps', type=count, default=MAX_SIM_STEPS,
-                    help='refuse runs of more physics steps per simulation (limit on time)')
-    sp.set_defaults(func=cmd_simulate)
+    from tca_ros.cli_simulate import add_parser as add_simulate_parser
+    add_simulate_parser(sub, common)
 
-    sp = sub.add_parser('bench', formatter_class=fmt,
-                        help='benchmark the dynamics of each model (printed figures)')
+    sp = sub.add_parser(
+        'bench', help='benchmark the dynamics of each model (printed figures)',
+        description='Time the kinetostatic solve and the dynamics of every model on this '
+                    'machine (1 kHz physics, one core) and print the figures.',
+        epilog=BENCH_EXAMPLE)
     common(sp, model=False)
     sp.add_argument('--seconds', type=finite_float, default=60.0, help='simulated time (s)')
     sp.set_defaults(func=cmd_bench)
@@ -320,7 +278,12 @@ def build_parser():
     from tca_ros.cli_toolkit import add_parser as add_toolkit_parser
     add_toolkit_parser(sub)
 
-    sp = sub.add_parser('demo', formatter_class=fmt, help='the main job of `make demo`')
+    sp = sub.add_parser(
+        'demo', help='the main job of `make demo`',
+        description='Statics of the TCA with every model and a 1 W dynamics run (tables and '
+                    'statics_dynamics.png in --out), then the closed-loop demo: simulator '
+                    'node and PID controller over ROS topics (demo_tracking.png).',
+        epilog=DEMO_EXAMPLE)
     common(sp, model=False)
     sp.add_argument('--out', default='out', help='output directory')
     sp.add_argument('--seconds', type=finite_float, default=30.0, help='closed-loop sim time (s)')
@@ -334,9 +297,11 @@ def main(argv=None, out=None):
     out = out or sys.stdout
     args = build_parser().parse_args(argv)
 
+    command = ' '.join(filter(None, (args.command, getattr(args, 'config_command', None))))
+
     def fail(status, text):
         line = ' '.join(str(text).split()) or 'unknown error'
-        sys.stderr.write(f'tca_sim {args.command}: error: {clip(line, MESSAGE_CHARS)}\n')
+        sys.stderr.write(f'tca_sim {command}: error: {clip(line, MESSAGE_CHARS)}\n')
         return status
 
     try:

@@ -4,22 +4,26 @@ The method is in tca_ros.diagnosis.calibration (docs/calibration.md); this modul
 reads the records, checks the request, prints the one-screen summary and writes
 the calibrated params file (and, with ``--report``, plots and calibration.json).
 """
-import argparse
 import json
 import os
 
 SUPPLIES = ('power', 'voltage')
+EXAMPLE = """example (the shipped synthetic recording of a free-stroke TCA; cst is the fast model):
+  tca_sim calibrate tca_ros/data/example_recording.csv --config free_stroke --model cst \\
+      --out my_tca_cal.yaml"""
 
 
 def add_parser(subparsers):
     """Register ``calibrate`` on the `tca_sim` subparsers."""
     from tca_ros.diagnosis.calibration import DEFAULT_FIT
     from tca_ros.model.params import MODELS
-    fmt = argparse.ArgumentDefaultsHelpFormatter
     sp = subparsers.add_parser(
-        'calibrate', formatter_class=fmt,
+        'calibrate',
         help="fit a muscle's heat loss, heat capacity, actuation gain, stiffness, damping, "
-             'delivered power and resistance law on its recordings')
+             'delivered power and resistance law on its recordings',
+        description="Fit a muscle's parameters that cannot be measured at the bench on its "
+                    'recordings; print a one-screen summary and write the calibrated params '
+                    'file (docs/calibration.md).', epilog=EXAMPLE)
     sp.add_argument('records', nargs='+', help='recordings (CSV with # header, or MCAP)')
     sp.add_argument('--config', default=None,
                     help="start params file (default: the first record's '# tca:' header); "
@@ -28,7 +32,7 @@ def add_parser(subparsers):
     sp.add_argument('--force', action='store_true', help='overwrite --out if it exists')
     sp.add_argument('--fit', default='',
                     help='comma-separated calibration parameters to fit (default: '
-                         + ','.join(DEFAULT_FIT) + ', and initial_temperature_rise on one '
+                         + ', '.join(DEFAULT_FIT) + ', and initial_temperature_rise on one '
                          'record whose logged temperature falls before any power); also '
                          'friction_force, initial_temperature_rise or a catalogue effect '
                          'parameter (e.g. effects.creep_compliance), fitted with the '

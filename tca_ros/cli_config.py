@@ -4,7 +4,6 @@ The derivations live in tca_ros.model.muscle (docs/describe.md); this module map
 flags to a MuscleSpec, names refused values by their flag, and writes the file with a
 header listing what was given and what was derived.
 """
-import argparse
 import math
 import os
 
@@ -29,16 +28,23 @@ METAVARS = {'out': 'PATH', 'thread': 'PRESET', 'thread_diameter': 'M', 'coil': '
             'cone_angle': 'DEG'}
 
 
+EXAMPLE = """example (a mandrel-coiled silver-plated nylon 6,6 muscle under 10 g):
+  tca_sim config new --out my_tca.yaml --thread nylon66_silver --thread-diameter 0.00045 \\
+      --coil mandrel --mandrel-diameter 0.0008 --pitch-angle 22.5 --loaded-length 0.14 \\
+      --resistance 13.3 --mass 0.01"""
+
+
 def add_parser(subparsers):
     """Register ``config`` and its ``new`` subcommand on the `tca_sim` subparsers."""
     from tca_ros.model.muscle import COIL_TYPES
     from tca_ros.model.params import MODELS
-    fmt = argparse.ArgumentDefaultsHelpFormatter
-    sp = subparsers.add_parser('config', formatter_class=fmt,
-                               help="describe a user's own muscle as a params file")
-    sub = sp.add_subparsers(dest='config_command', required=True)
+    sp = subparsers.add_parser(
+        'config', help="describe a user's own muscle as a params file",
+        description="Describe a user's own muscle as a params file for --config.",
+        epilog=EXAMPLE)
+    sub = sp.add_subparsers(dest='config_command', metavar='SUBCOMMAND')
     new = sub.add_parser(
-        'new', formatter_class=fmt,
+        'new', epilog=EXAMPLE,
         help='write a params file from thread, coil, length, resistance and mass',
         description='Write a params file from what a maker knows; everything derivable '
                     '(coil radius, fiber length, coil count, contact angle, inserted twist, '

@@ -3,7 +3,6 @@
 The method is in tca_ros.diagnosis; this module checks the request against the
 work limits, runs the diagnosis and prints its one-screen summary.
 """
-import argparse
 import math
 import os
 
@@ -17,15 +16,18 @@ MAX_DIAGNOSE_STEPS = 100_000  # physics steps of one record-rate simulation in d
 DIAGNOSIS_PHYSICS_HZ = 200.0  # diagnose's record-rate physics rate floor (fitting.py)
 DIAGNOSIS_FIT_HZ = 10.0  # diagnose's default fit-grid rate (fitting.FIT_RATE_HZ)
 MIN_FIT_SAMPLES = 20  # fit-grid samples a diagnosis needs (data.MIN_SAMPLES)
+EXAMPLE = """example (the shipped synthetic 240 s recording; a few minutes of CPU):
+  tca_sim diagnose tca_ros/data/example_recording.csv --config free_stroke --report out/example"""
 
 
 def add_parser(subparsers):
     """Register ``diagnose`` on the `tca_sim` subparsers."""
     from tca_ros.model.params import MODELS
-    fmt = argparse.ArgumentDefaultsHelpFormatter
     sp = subparsers.add_parser(
-        'diagnose', formatter_class=fmt,
-        help='find what the model gets wrong in a recording (CSV or MCAP)')
+        'diagnose', help='find what the model gets wrong in a recording (CSV or MCAP)',
+        description='Calibrate the model on part of a recording, search the catalogue of '
+                    'effects for what explains the rest, and print the verdict '
+                    '(docs/diagnosis.md).', epilog=EXAMPLE)
     sp.add_argument('data', nargs='+',
                     help='recording(s): CSV with # key: value header, or MCAP bag; several '
                          'records of one muscle are diagnosed together (one calibration)')

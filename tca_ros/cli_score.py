@@ -5,17 +5,26 @@ gains; tca_ros.toolkit.scoring); with ``--namespace NS`` they run on the ``tca``
 in NS against whatever controller answers there (tca_ros.score_ros; rclpy is
 imported only then). Both print the same table and, with ``--out DIR``, one PNG
 per task.
+
+Before each task the reference is checked against the muscle's reach at the power
+limit (scoring.task_limits: the steady-state contraction at that power under the
+task's load); out of reach, one warning line on stderr says so. Each row's last
+column says the limits that applied: in-process, tca_pid's max_power (2 W) under
+the driver's 5 W; over ROS, the node's max_power (the controller's own limit is
+not known there, so the reach is an upper bound).
 """
-import argparse
 import dataclasses
 import os
 import sys
 import time
 
-from tca_ros.cli_common import checked_config, InputError
+from tca_ros.cli_common import checked_config, InputError, warn
 
 MAX_TIMEOUT = 3600.0  # s
 STARTED_DISCOVERY = 30.0  # s a node started by --start-node may take to be discovered
+EXAMPLE = """example (two tasks cut to 8 s, tca_pid's law in-process, PNGs in out/score):
+  tca_sim score --config free_stroke --model cst --tasks step_up,ramp --duration 8 \\
+      --out out/score"""
 
 
 def add_parser(subparsers):
@@ -23,9 +32,12 @@ def add_parser(subparsers):
     from tca_ros.cli_common import finite_float
     from tca_ros.model.params import MODELS
     sp = subparsers.add_parser(
-        'score', formatter_class=argparse.ArgumentDefaultsHelpFormatter,
+        'score',
         help='score a controller on the tracking tasks: tca_pid in-process, or any '
-             'controller on ROS topics (--namespace)')
+             'controller on ROS topics (--namespace)',
+        description='Run the versioned tracking tasks and print one row of metrics per '
+                    'task (docs/toolkit.md); each row says the power limit it ran under '
+                    'and whether the reference was within reach there.', epilog=EXAMPLE)
     sp.add_argument('--tasks', default='default',
                     help="task set ('default') or comma-separated task names of it")
     sp.add_argument('--duration', type=finite_float, default=None,
@@ -103,15 +115,32 @@ def cmd_score(args, out):
     return 0
 
 
+def checked_limits(task, params, power_limit, source, model, rate, max_temperature):
+    """Return scoring.task_limits of a task; warn on stderr when it is out of reach."""
+    from tca_ros.toolkit.scoring import task_limits
+    limits = task_limits(task, params, power_limit, source, model, rate, max_temperature)
+    if limits['warning']:
+        warn('score', limits['warning'])
+    return limits
+
+
 def _score_in_process(args, tasks):
     from tca_ros.model.params import load_params
     from tca_ros.pid_node import PARAMETERS, PidController
-    from tca_ros.toolkit.scoring import law_controller, run_tasks
+    from tca_ros.toolkit.scoring import law_controller, MAX_POWER, MAX_TEMPERATURE, run_task
     params = load_params(checked_config(args.config))
     gains = {name: default for name, default, *_ in PARAMETERS if name != 'setpoint'}
     model = args.model or params.model
-    runs = run_tasks(tasks, params, law_controller(lambda: PidController(**gains)),
-                     model=model)
+    factory = law_controller(lambda: PidController(**gains))
+    power = min(gains['max_power'], MAX_POWER)
+    source = (f'tca_pid max_power; driver {MAX_POWER:g} W' if gains['max_power'] < MAX_POWER
+              else f'driver max_power; tca_pid {gains["max_power"]:g} W')
+    runs = []
+    for task in tasks:
+        limits = checked_limits(task, params, power, source, model, 100.0, MAX_TEMPERATURE)
+        run = run_task(task, params, factory, model=model)
+        run['limits'] = limits
+        runs.append(run)
     return runs, f'tca_pid in-process (default gains) on {params.tca_type}, {model}'
 
 
@@ -124,8 +153,13 @@ def _score_over_ros(args, tasks):
                           default_log_path(args.out), max(args.timeout, 30.0))
     try:
         # a node just started needs discovery time whatever --timeout says
-        runs, values = score_over_ros(tasks, namespace, args.node, args.timeout,
-                                      max(args.timeout, STARTED_DISCOVERY) if proc else None)
+        runs, values = score_over_ros(
+            tasks, namespace, args.node, args.timeout,
+            max(args.timeout, STARTED_DISCOVERY) if proc else None,
+            before_task=lambda task, params, values: checked_limits(
+                task, params, values['max_power'], "node max_power; the controller's own "
+                'limit unknown', params.model, values['publish_rate'],
+                values['max_temperature']))
     finally:
         if proc is not None:
             stop_node(proc)

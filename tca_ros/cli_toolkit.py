@@ -4,7 +4,6 @@ The methods are in tca_ros.toolkit (docs/toolkit.md); ``linearize`` checks the
 request, prints poles, gains, bandwidths and transfer functions and, with ``--out
 DIR``, writes the Bode plot and the matrices; ``score`` is in cli_score.
 """
-import argparse
 import json
 import math
 import os
@@ -15,16 +14,20 @@ from tca_ros.cli_score import add_parser as add_score_parser
 CHANNELS = (('power', 'displacement'), ('power', 'temperature'), ('power', 'resistance'),
             ('load', 'displacement'), ('voltage', 'displacement'))
 THERMAL_POLE_MATCH = 1e-6  # relative distance at which a pole is A[0, 0] itself
+EXAMPLE = """example (the free-stroke TCA at 1 W under its config's load; Bode plot in out/lin):
+  tca_sim linearize --config free_stroke --power 1 --out out/lin"""
 
 
 def add_parser(subparsers):
     """Register ``linearize`` on the `tca_sim` subparsers."""
     from tca_ros.model.params import MODELS
-    fmt = argparse.ArgumentDefaultsHelpFormatter
     sp = subparsers.add_parser(
-        'linearize', formatter_class=fmt,
+        'linearize',
         help='small-signal plant (power or voltage -> displacement, temperature, '
-             'resistance) at an operating point: poles, DC gain, bandwidth, Bode plot')
+             'resistance) at an operating point: poles, DC gain, bandwidth, Bode plot',
+        description='Linearize the muscle at a constant power and load; print the operating '
+                    'point, poles, DC gains, bandwidths and transfer functions '
+                    '(docs/toolkit.md).', epilog=EXAMPLE)
     sp.add_argument('--config', default='free_stroke',
                     help='params file (path or shipped name: free_stroke, self_coiled, '
                          'conical)')

@@ -27,7 +27,7 @@ from tca_ros.model.params import from_flat_dict, SCHEMA
 from tca_ros.node_task import parse_record, task_message, TASK_QOS
 from tca_ros.toolkit.scoring import scored_run, task_inputs
 
-NODE_SETTINGS = ('publish_clock', 'lockstep', 'publish_rate', 'max_temperature')
+NODE_SETTINGS = ('publish_clock', 'lockstep', 'publish_rate', 'max_temperature', 'max_power')
 PROGRESS_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.BEST_EFFORT)  # not acked
 STOP_GRACE = 5.0  # s between SIGINT and SIGKILL of a node the scorer started
 SPIN_STEP = 0.01  # s, executor wait per turn
@@ -146,10 +146,13 @@ class RosScorer(Node):
         self.destroy_node()
 
 
-def score_over_ros(tasks, namespace, node_name='tca', timeout=10.0, discovery=None):
+def score_over_ros(tasks, namespace, node_name='tca', timeout=10.0, discovery=None,
+                   before_task=None):
     """Run ``tasks`` on the ``tca`` node in ``namespace``; return (runs, node parameters).
 
     ``discovery`` (s, default ``timeout``) bounds the wait for the node to be found.
+    ``before_task(task, params, values)``, when given, is called before each task
+    with the node's muscle and settings; what it returns is the run's 'limits'.
 
     Each run is the dict of tca_ros.toolkit.scoring.scored_run plus 'broken' (the
     muscle broke during the task). Raises InputError (one line) when no node or no
@@ -166,6 +169,7 @@ def score_over_ros(tasks, namespace, node_name='tca', timeout=10.0, discovery=No
         values['stamped_reference'] = scorer.wait_for_controller()
         runs = []
         for task in tasks:
+            limits = before_task(task, params, values) if before_task else None
             t, reference, load = task_inputs(task, params, params.model,
                                              values['publish_rate'], values['max_temperature'])
             record = scorer.play(task, t, reference, load)
@@ -173,6 +177,8 @@ def score_over_ros(tasks, namespace, node_name='tca', timeout=10.0, discovery=No
                              record['temperature'], record['power'],
                              values['max_temperature'])
             run['broken'] = record['broken']
+            if limits is not None:
+                run['limits'] = limits
             runs.append(run)
         return runs, values
     finally:

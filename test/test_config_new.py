@@ -169,7 +169,7 @@ def test_a_muscle_that_cannot_exist_is_refused_in_one_line(tmp_path, capsys, cha
     code, _ = run(['config', 'new', '--out', str(path), *args])
     err = capsys.readouterr().err
     assert code == 2
-    assert err.count('\n') == 1 and err.startswith(f'tca_sim config: error: {flag}'), err
+    assert err.count('\n') == 1 and err.startswith(f'tca_sim config new: error: {flag}'), err
     assert why in err
     assert not path.exists()
 

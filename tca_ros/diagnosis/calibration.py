@@ -406,7 +406,7 @@ def calibrate(records, params, model=None, fit=None, progress=False, max_nfev=40
     objective = engine.Objective(records, channels,
                                  predictor(start, model, channels, supply, corrections),
                                  weights=weights, mask=selected)
-    bar = Progress(progress, total=(len(parameters) + 1) * 24)
+    bar = Progress(progress, total=(len(parameters) + 1) * 24, stage='calibration')
     initial = {'displacement': 0.05 * median_peak, 'temperature': 2.0,
                'resistance': 0.01 * r0}
     options = dict(initial_scale=initial, max_nfev=max_nfev, progress=bar,

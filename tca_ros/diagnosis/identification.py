@@ -178,7 +178,7 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
         cal, params_of, note = calibrate_training_part(records, params_of, model, fraction,
                                                        supply, progress, validation)
         notes.append(note)
-    bar = Progress(progress, EXPECTED_SIMULATIONS * len(records))
+    bar = Progress(progress, EXPECTED_SIMULATIONS * len(records), stage='effect search')
     options = dict(model=model, physics_rate=physics_rate,
                    fit_rate=fit_rate or fitting.FIT_RATE_HZ, train_fraction=fraction,
                    progress=bar, validation=validation)

@@ -40,18 +40,22 @@ def simulate_rig(params, time, power, load=None, power_2=None, model=None,
     ``load`` is the dead weight (N) or the spring's F_0 (N; default rig.pretension);
     the isometric and antagonistic rigs take none. ``power_2`` (W, default 0) heats
     the antagonist. Samples at ``time`` (s), physics at ``physics_rate`` (Hz) or
-    the sample interval when finer; the state starts at rest at ambient.
+    the sample interval when finer; the state starts at rest at ambient. A run that
+    fails part-way raises with the samples before it as the exception's ``partial``
+    RigResult.
     """
     mode = params.rig.mode
     time = np.asarray(time, dtype=float)
     power = np.asarray(power, dtype=float)
     if mode == DEAD_WEIGHT:
-        res = simulate(params, time, power, load, model=model, physics_rate=physics_rate,
-                       kinetostatics=kinetostatics)
-        return RigResult(mode, {'time': time, 'power': power, 'load': res.load,
-                                'displacement': res.displacement,
-                                'temperature': res.temperature,
-                                'resistance': res.resistance})
+        try:
+            res = simulate(params, time, power, load, model=model,
+                           physics_rate=physics_rate, kinetostatics=kinetostatics)
+        except (ValueError, ArithmeticError) as exc:
+            if hasattr(exc, 'partial'):
+                exc.partial = _dead_weight(exc.partial)
+            raise
+        return _dead_weight(res)
     if load is not None and mode != SPRING:
         raise ValueError(f'rig.mode = {mode!r}: takes no load input (the load is the rig)')
     if power_2 is not None and mode != ANTAGONISTIC:
@@ -71,18 +75,31 @@ def simulate_rig(params, time, power, load=None, power_2=None, model=None,
     names = RIG_COLUMNS[mode]
     out = {name: np.empty(time.size) for name in names}
     _sample(sim, out, 0, time[0], power[0], load[0], power_2[0])
-    for i in range(1, time.size):
-        span = time[i] - time[i - 1]
-        steps = max(1, int(round(span / dt)))
-        if abs(sim.dt - span / steps) > 1e-12 * sim.dt:
-            sim.set_dt(span / steps)
-        for _ in range(steps):
-            if mode == ANTAGONISTIC:
-                sim.step(power[i - 1], power_2=power_2[i - 1])
-            else:
-                sim.step(power[i - 1], load[i - 1])
-        _sample(sim, out, i, time[i], power[i], load[i], power_2[i])
+    i = 1
+    try:
+        for i in range(1, time.size):
+            span = time[i] - time[i - 1]
+            steps = max(1, int(round(span / dt)))
+            if abs(sim.dt - span / steps) > 1e-12 * sim.dt:
+                sim.set_dt(span / steps)
+            for _ in range(steps):
+                if mode == ANTAGONISTIC:
+                    sim.step(power[i - 1], power_2=power_2[i - 1])
+                else:
+                    sim.step(power[i - 1], load[i - 1])
+            _sample(sim, out, i, time[i], power[i], load[i], power_2[i])
+    except (ValueError, ArithmeticError) as exc:  # the run ends: keep the samples before
+        exc.partial = RigResult(mode, {name: column[:i] for name, column in out.items()})
+        raise
     return RigResult(mode, out)
+
+
+def _dead_weight(res):
+    """Return the RigResult of a dead-weight SimulationResult."""
+    return RigResult(DEAD_WEIGHT, {'time': res.time, 'power': res.power, 'load': res.load,
+                                   'displacement': res.displacement,
+                                   'temperature': res.temperature,
+                                   'resistance': res.resistance})
 
 
 def _sample(sim, out, i, time, power, load, power_2):

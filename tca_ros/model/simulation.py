@@ -43,7 +43,9 @@ def simulate(params, time, power, load=None, model=None, physics_rate=1000.0,
 
     Inputs are held constant between samples (zero-order hold). The physics runs at
     ``physics_rate`` (Hz), or at the sample interval when that is finer. The state
-    starts at the loaded equilibrium at ambient under ``load[0]``. ``supply``:
+    starts at the loaded equilibrium at ambient under ``load[0]``. A run that fails
+    part-way (ThreadBreakError, a model leaving its range) raises with the samples
+    before the failure as the exception's ``partial`` SimulationResult. ``supply``:
     'power' (the column is the power delivered) or 'voltage' (the column is the
     nominal power of a constant-voltage supply set at R0, so the power applied
     is P R0 / R(T, x), updated every physics step). With
@@ -69,25 +71,36 @@ def simulate(params, time, power, load=None, model=None, physics_rate=1000.0,
     n0 = sim.check_step()
     out = np.empty((6, time.size))
     out[:, 0] = _sample(state)
-    for i in range(1, time.size):
-        span = time[i] - time[i - 1]
-        steps = max(1, int(round(span / dt)))
-        if abs(sim.dt - span / steps) > STEP_CHANGE_TOLERANCE * sim.dt:
-            sim.set_dt(span / steps)
-        for _ in range(steps):
-            applied = power[i - 1]
-            if supply == 'voltage':
-                if not state.resistance > 0.0:
-                    raise ArithmeticError(f'voltage supply: resistance {state.resistance:g} '
-                                          'ohm is not positive')
-                applied = applied * params.electrical.resistance / state.resistance
-            state = sim.step(applied, load[i - 1])
-        out[:, i] = _sample(state)
-    if params.thermal.initial_temperature_rise > 0.0:
-        out[0], out[5] = read_from_start(out[0], out[5])
-    return SimulationResult(time=time, power=power, load=load, displacement=out[0],
-                            temperature=out[1], resistance=out[2], tension=out[3],
-                            velocity=out[4], true_displacement=out[5], substeps=n0)
+
+    def result(n):
+        """Return the first n samples as a SimulationResult."""
+        x = out[:, :n].copy()
+        if params.thermal.initial_temperature_rise > 0.0 and n > 0:
+            x[0], x[5] = read_from_start(x[0], x[5])
+        return SimulationResult(time=time[:n], power=power[:n], load=load[:n],
+                                displacement=x[0], temperature=x[1], resistance=x[2],
+                                tension=x[3], velocity=x[4], true_displacement=x[5],
+                                substeps=n0)
+    i = 1
+    try:
+        for i in range(1, time.size):
+            span = time[i] - time[i - 1]
+            steps = max(1, int(round(span / dt)))
+            if abs(sim.dt - span / steps) > STEP_CHANGE_TOLERANCE * sim.dt:
+                sim.set_dt(span / steps)
+            for _ in range(steps):
+                applied = power[i - 1]
+                if supply == 'voltage':
+                    if not state.resistance > 0.0:
+                        raise ArithmeticError(f'voltage supply: resistance '
+                                              f'{state.resistance:g} ohm is not positive')
+                    applied = applied * params.electrical.resistance / state.resistance
+                state = sim.step(applied, load[i - 1])
+            out[:, i] = _sample(state)
+    except (ValueError, ArithmeticError) as exc:  # e.g. ThreadBreakError: the run ends
+        exc.partial = result(i)  # the samples before the failure, for a caller to keep
+        raise
+    return result(time.size)
 
 
 def read_from_start(measured, true_displacement):
