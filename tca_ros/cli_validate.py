@@ -25,8 +25,6 @@ def add_parser(subparsers):
                     help='calibrated params file (from `tca_sim calibrate`)')
     sp.add_argument('--model', choices=MODELS, default=None,
                     help="kinetostatic model (default: the params file's)")
-    sp.add_argument('--supply', choices=('power', 'voltage'), default='power',
-                    help='what the power column is (as for calibrate)')
     sp.set_defaults(func=cmd_validate)
 
 
@@ -45,7 +43,7 @@ def cmd_validate(args, out):
         out.write(warning + '\n')
     trained = read_trained_range(path)
     model = args.model or params.model
-    rows = validate(records, params, model, trained, args.supply)
+    rows = validate(records, params, model, trained)
     label = 'lumped'
     if trained is None:
         out.write(f'note: {args.config} has no calibrated_on header (not written by '
