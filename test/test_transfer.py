@@ -156,3 +156,33 @@ def test_an_isotonic_calibration_predicts_the_force_of_an_isometric_rig(files, t
     assert float(row[3].rstrip('%')) < 10.0, text  # the force rise, from displacement only
     assert row[4] == '-'  # a lumped power-to-contraction model has no force to give
     assert 'rig isometric not calibrated' in text
+
+
+def test_an_isometric_record_calibrates_the_same_params_and_predicts_a_load(tmp_path):
+    # records of a clamped muscle alone (force, 1 g pretension) calibrate the muscle;
+    # the calibrated file then predicts the same muscle with a hanging mass
+    from tca_ros.diagnosis.calibration import calibrate, full_nrmse
+    from tca_ros.diagnosis.data import read_record
+    from tca_ros.model.rig_simulation import simulate_rig
+    start = describe_muscle(SPEC).params
+    truth = start.with_values(**{'fiber.untwist_gain': 1.3, 'effects.second_thermal_lag': 2.0})
+    rng = np.random.default_rng(4)
+    t = np.arange(0.0, 60.0, 0.2)
+    paths = []
+    for k, w in enumerate((0.3, 0.5)):
+        p = np.where((t >= 10.0) & (t < 35.0), w, 0.0)
+        iso = truth.with_values(**{'rig.mode': 'isometric', 'rig.pretension': 0.00981})
+        force = simulate_rig(iso, t, p, model='cst', physics_rate=500.0).columns['force']
+        force = force + 2e-4 * rng.standard_normal(t.size)
+        path = tmp_path / f'iso{k}.csv'
+        path.write_text('# tca: free_stroke\n# mass_kg: 0.001\n# sample_rate_hz: 5\n'
+                        '# rig: isometric\n# pretension_n: 0.00981\ntime,power,force\n'
+                        + ''.join(f'{a:.3f},{b:.4f},{c:.6f}\n' for a, b, c in zip(t, p, force)))
+        paths.append(str(path))
+    records = [read_record(p) for p in paths]
+    cal = calibrate(records, start, model='cst')
+    assert cal.report.success and 'force' in cal.channels
+    assert max(cal.nrmse) < 0.03, cal.nrmse  # the full rig dynamics, force rise
+    assert cal.report.values['actuation_gain'] == pytest.approx(1.3, rel=0.15)
+    hanging = bench_record(truth, 0.4, 0.02, rng, drift=0.0)
+    assert full_nrmse(cal.params, [hanging], 'cst')[0] < 0.08  # 5.6 % when written

@@ -54,15 +54,19 @@ from tca_ros.diagnosis.calibration_parameters import apply_calibration, calibrat
     coil_stiffness, damping_bound, DEFAULT_FIT, EFFECT_PARAMETERS, effect_priors, \
     MAX_DAMPING_RATIO, OPTIONAL_FIT  # noqa: F401 (coil_stiffness, MAX_DAMPING_RATIO: API)
 from tca_ros.diagnosis.conditions import environment_of, environment_priors, \
-    environment_scales, held_strength, in_environment
+    environment_scales, held_strength, in_environment, is_isometric, measured, with_tension
 from tca_ros.diagnosis.progress import Progress
 from tca_ros.model.kinetostatics import static_elongation
 from tca_ros.model.quasistatic import QuasiStaticPlant
+from tca_ros.model.quasistatic_isometric import isometric_force
+from tca_ros.model.resistance import resistance
+from tca_ros.model.rig_simulation import simulate_rig
 from tca_ros.model.simulation import simulate
 from tca_ros.model.static_maps import make_statics
 
 PEAK_PERCENTILE = 99.5  # % of a record's contraction taken as its peak (spike-robust)
 DISPLACEMENT_SCALE_FLOOR = 1e-6  # m, residual scale floor (a good encoder's resolution)
+FORCE_SCALE_FLOOR = 1e-5  # N, likewise (a load cell's resolution, 1 mg)
 MIN_PHYSICS_RATE_HZ = 200.0  # Hz, full-dynamics check
 NOMINAL_LEVELS = 2  # a power column with at most this many distinct values is nominal
 WARM_START_WINDOW_S = 1.0  # s of power off at the start needed to see a warm start
@@ -148,6 +152,12 @@ def normalised_rmse(record, displacement):
         / peak_stroke(record)
 
 
+def peak_response(record, mask=None):
+    """Return the peak of what the record's rig measures (m, or N isometric), spike-robust."""
+    x = measured(record) if mask is None else measured(record)[mask]
+    return float(max(np.percentile(x, PEAK_PERCENTILE), 1e-6))
+
+
 @dataclass
 class Calibration:
     """Result of ``calibrate``: the calibrated params and how well they fit."""
@@ -231,7 +241,7 @@ class Calibration:
 def channels_of(records):
     """Return the channels present in every record (displacement first)."""
     out = ['displacement']
-    for c in ('temperature', 'resistance'):
+    for c in ('temperature', 'resistance', 'force'):
         if all(getattr(r, c) is not None for r in records):
             out.append(c)
     return out
@@ -278,12 +288,31 @@ def predictor(start, model, channels, supply='power', corrections=None):
             if plant is None:
                 plant = plants[key] = QuasiStaticPlant(in_environment(
                     params.with_values(**{'dynamics.mass': mass}), r, scales), model=model)
+            if is_isometric(r):
+                out.append(isometric_prediction(plant, r, channels))
+                continue
             sim = plant.simulate(r.time, r.power, r.load, supply=supply)
-            out.append({c: getattr(sim, c) for c in channels})
+            pred = {c: getattr(sim, c) for c in channels if c != 'force'}
+            if 'force' in channels:  # a hanging mass pulls its weight
+                pred['force'] = np.asarray(r.load, dtype=float)
+            out.append(pred)
         if corrections is not None:
             out = [{c: p[c] + d[c] for c in channels} for p, d in zip(out, corrections)]
         return out
     return predict
+
+
+def isometric_prediction(plant, record, channels):
+    """Return {channel: array} of a clamped muscle's quasi-static record (force in N)."""
+    force, temperature = isometric_force(plant, record.time, record.power,
+                                         float(record.load[0]))
+    zero = np.zeros_like(record.time)
+    out = {'displacement': zero, 'force': force, 'temperature': temperature}
+    if 'resistance' in channels:
+        p = plant.params
+        out['resistance'] = resistance(temperature, zero, plant.loaded_length(
+            float(record.load[0])), p.electrical, p.thermal.ambient_temperature)
+    return {c: out[c] for c in channels}
 
 
 def full_predictions(params, records, model, channels, supply='power', scales=None):
@@ -295,8 +324,19 @@ def full_predictions(params, records, model, channels, supply='power', scales=No
     out = []
     for r in records:
         rate = max(MIN_PHYSICS_RATE_HZ, r.sample_rate)
+        if is_isometric(r):
+            p = in_environment(params.with_values(**{
+                'rig.mode': 'isometric', 'rig.pretension': float(r.load[0])}), r, scales)
+            columns = simulate_rig(p, r.time, r.power, model=model, physics_rate=rate).columns
+            columns['displacement'] = np.zeros_like(r.time)
+            out.append({c: columns[c] for c in channels})
+            continue
         sim = simulate(in_environment(record_params(params, r), r, scales), r.time, r.power,
                        r.load, model=model, physics_rate=rate, supply=supply)
+        if 'force' in channels:
+            out.append({**{c: getattr(sim, c) for c in channels if c != 'force'},
+                        'force': np.asarray(r.load, dtype=float)})
+            continue
         out.append({c: getattr(sim, c) for c in channels})
     return out
 
@@ -360,6 +400,8 @@ def calibrate(records, params, model=None, fit=None, progress=False, max_nfev=40
             f'coil.shape = {params.coil.shape!r}: calibration needs a helical TCA '
             '(its search runs on the quasi-static reduction, whose static maps are '
             "the uniform helix's; the conical TCA simulates but is not calibrated)")
+    if any(is_isometric(r) for r in records):  # every record gets a force channel
+        records = [with_tension(r) for r in records]
     channels = channels_of(records)
     nominal = is_nominal_power(records)
     start, notes = prepare_start(params, records, model)
@@ -399,18 +441,24 @@ def calibrate(records, params, model=None, fit=None, progress=False, max_nfev=40
     masks = [None] * len(records) if masks is None else [np.asarray(m, bool) for m in masks]
     by_record = {id(r): m for r, m in zip(records, masks)}
     selected = None if masks[0] is None else (lambda r: by_record[id(r)])
-    peaks = [peak_stroke(r, m) for r, m in zip(records, masks)]
-    median_peak = float(np.median(peaks))
-    weights = [p / median_peak for p in peaks]
+    # every record counts equally relative to the others of its rig (metres or newtons)
+    peaks = [peak_response(r, m) for r, m in zip(records, masks)]
+    medians = {k: float(np.median([p for p, r in zip(peaks, records)
+                                   if is_isometric(r) == k]))
+               for k in {is_isometric(r) for r in records}}
+    weights = [p / medians[is_isometric(r)] for p, r in zip(peaks, records)]
+    median_peak = medians.get(False, medians.get(True))
     corrections = like.corrections if like is not None else None
     objective = engine.Objective(records, channels,
                                  predictor(start, model, channels, supply, corrections),
                                  weights=weights, mask=selected)
     bar = Progress(progress, total=(len(parameters) + 1) * 24, stage='calibration')
     initial = {'displacement': 0.05 * median_peak, 'temperature': 2.0,
+               'force': 0.05 * medians.get(True, 0.01),
                'resistance': 0.01 * r0}
     options = dict(initial_scale=initial, max_nfev=max_nfev, progress=bar,
-                   scale_floor={'displacement': DISPLACEMENT_SCALE_FLOOR})
+                   scale_floor={'displacement': DISPLACEMENT_SCALE_FLOOR,
+                                'force': FORCE_SCALE_FLOOR})
     first = {p.name: min(max(start_values[p.name], p.low), p.high) for p in parameters
              if p.name in (start_values or {})}
     report = engine.fit(objective, parameters, start=first, **options)
@@ -442,8 +490,13 @@ def calibrate(records, params, model=None, fit=None, progress=False, max_nfev=40
         for params, fits, scores in ((start, result.start_fit, result.start_nrmse),
                                      (calibrated, result.fit, result.nrmse)):
             for r, p in zip(records, full_predictions(params, records, model,
-                                                      ['displacement'], supply,
+                                                      ['displacement', 'force'], supply,
                                                       result.environments)):
                 fits.append(p['displacement'])
-                scores.append(normalised_rmse(r, p['displacement']))
+                if is_isometric(r):
+                    force = p['force'] - p['force'][0]
+                    scores.append(float(np.sqrt(np.mean((measured(r) - force) ** 2)))
+                                  / peak_response(r))
+                else:
+                    scores.append(normalised_rmse(r, p['displacement']))
     return result

@@ -25,6 +25,31 @@ SCALE_BOUNDS = (0.05, 500.0)
 HELD_MARGIN = 1.1  # strength taken, x the largest load a record shows the thread held
 
 
+def rig_of(record):
+    """Return the record's rig ('dead_weight' unless its header says otherwise)."""
+    return str(record.meta.get('rig', 'dead_weight')).strip()
+
+
+def is_isometric(record):
+    """Return True for a record of a clamped muscle (``# rig: isometric``)."""
+    return rig_of(record) == 'isometric'
+
+
+def measured(record):
+    """Return what the record's rig measures: the contraction (m), or the force rise (N)."""
+    if is_isometric(record):
+        return record.force - record.force[0]
+    return record.displacement
+
+
+def with_tension(record):
+    """Return the record with a force channel: a hanging mass pulls its weight (N)."""
+    if record.force is not None:
+        return record
+    from dataclasses import replace
+    return replace(record, force=np.array(record.load, dtype=float))
+
+
 def environment_of(record):
     """Return the record's environment name (header ``environment``; default still air)."""
     name = str(record.meta.get('environment', STILL_AIR)).strip().lower().replace(' ', '_')

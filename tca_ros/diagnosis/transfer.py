@@ -12,30 +12,16 @@ import json
 
 import numpy as np
 
-from tca_ros.diagnosis.calibration import full_predictions, MIN_PHYSICS_RATE_HZ, \
-    normalised_rmse, predictor
-from tca_ros.diagnosis.conditions import environment_of, in_environment, SCALE_PREFIX, \
+from tca_ros.diagnosis.calibration import full_predictions, normalised_rmse, predictor
+from tca_ros.diagnosis.conditions import environment_of, measured, rig_of, SCALE_PREFIX, \
     STILL_AIR
 from tca_ros.diagnosis.lumped import fit_lumped, predict_lumped
 from tca_ros.diagnosis.validation import condition_of, repeat_floor
-from tca_ros.model.rig_simulation import simulate_rig
 
 HEADER_KEY = 'calibrated_on'  # params-file header line written by `tca_sim calibrate`
 POWER_MARGIN = 1.05  # a power this far past the trained ones is an extrapolation
 LOAD_MARGIN = 1.10  # likewise a load (x the largest, / the smallest trained)
 TEMPERATURE_MARGIN_K = 10.0  # K past the hottest trained prediction
-
-
-def rig_of(record):
-    """Return the record's rig ('dead_weight' unless its header says otherwise)."""
-    return str(record.meta.get('rig', 'dead_weight')).strip()
-
-
-def measured(record):
-    """Return (what the record's rig measures: displacement m or force N, its name)."""
-    if rig_of(record) == 'isometric':
-        return record.force - record.force[0], 'force'
-    return record.displacement, 'displacement'
 
 
 def rig_prediction(params, record, model, scales=None):
@@ -44,12 +30,9 @@ def rig_prediction(params, record, model, scales=None):
     Isotonic (a hanging mass): the contraction; isometric (clamped at its length
     under the record's pretension, N): the force rise above the pretension.
     """
-    rate = max(MIN_PHYSICS_RATE_HZ, record.sample_rate)
     if rig_of(record) == 'isometric':
-        p = in_environment(params.with_values(**{
-            'rig.mode': 'isometric', 'rig.pretension': float(record.load[0])}), record, scales)
-        force = simulate_rig(p, record.time, record.power, model=model,
-                             physics_rate=rate).columns['force']
+        force = full_predictions(params, [record], model, ['force'], 'power',
+                                 scales)[0]['force']
         return force - force[0]
     return full_predictions(params, [record], model, ['displacement'], 'power',
                             scales)[0]['displacement']
@@ -57,7 +40,7 @@ def rig_prediction(params, record, model, scales=None):
 
 def rig_nrmse(record, prediction):
     """Return RMSE / peak measured response (-) of the record's measured channel."""
-    values, _ = measured(record)
+    values = measured(record)
     peak = max(float(np.percentile(values, 99.5)), 1e-9)
     return float(np.sqrt(np.mean((values - prediction) ** 2))) / peak
 
@@ -154,7 +137,7 @@ def validate(records, params, model, trained=None, supply='power'):
     isotonic = [r for r in records if rig_of(r) != 'isometric']
     lumped = trained['lumped'] if trained else (fit_lumped(isotonic).values if isotonic
                                                 else None)
-    floors = repeat_floor(records, channel=lambda r: measured(r)[0])
+    floors = repeat_floor(records, channel=measured)
     peaks = peak_temperatures(params, records, model, supply, scales) if trained else \
         [0.0] * len(records)
     rows = []
