@@ -40,9 +40,9 @@ class PlantModel:
     Parameters
     ----------
     params : TcaParams
-        The TCA (config/*.yaml).
+        The TCA whose plant is wanted (a config/*.yaml loaded).
     model : str, optional
-        Kinetostatic model rod | cst | love (default ``params.model``).
+        Its kinetostatic model: rod | cst | love (default ``params.model``).
     drive : str
         'power' (input P in W) or 'voltage' (input V in V, P = V^2 / R).
     """
