@@ -361,7 +361,8 @@ class AntagonisticPair:
     def _substep(self, power_1, power_2, h):
         a, b = self.agonist, self.antagonist
         r = self.radius
-        force_1, force_2 = self.forces()  # Eq. (R6)
+        force_1 = tendon_force(a.state.tension)  # Eq. (R6), as forces()
+        force_2 = tendon_force(b.state.tension)
         theta = self.angle
         nxt = central_difference_step(theta, self.previous_angle, r * (force_1 - force_2),
                                       self.inertia, self.damping, h)  # Eq. (R7)

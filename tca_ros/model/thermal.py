@@ -145,8 +145,11 @@ def heat_loss_slope(temp, hb):
 
 
 def steady_temperature(power, hb):
-    """Return T (degC) where the linear eq. (1) rests under the logged power P (W)."""
-    return hb.ambient + hb.gain * power / hb.conductance
+    """Return T (degC) where the linear eq. (1) rests under the logged power P (W).
+
+    T_inf + (1 - eta) r P / (h c_s A_0): the exact step's target (decay 0).
+    """
+    return heat_step_exact(hb.ambient, power, 0.0, hb)
 
 
 def heat_decay(h, hb):
@@ -159,7 +162,7 @@ def heat_step_exact(temp, power, decay, hb):
 
     ``decay`` is ``heat_decay`` of the step (kept by a stepper while h is).
     """
-    target = steady_temperature(power, hb)
+    target = hb.ambient + hb.gain * power / hb.conductance  # degC, where it rests
     return target + (temp - target) * decay
 
 
