@@ -100,18 +100,6 @@ def tendon_force(tension):
     return 0.0 if 0.0 > tension else tension
 
 
-def joint_stops(reference, creeps, contact, radius):
-    """Return (low, high) (rad): the angles where a coil of the pair reaches contact.
-
-    Eq. (R5) q_1 = q_0 - r_p theta, q_2 = q_0 + r_p theta with the coils
-    q_i - y_c,i (``creeps`` (y_c,1, y_c,2), m) at the ``contact`` elongation (m)
-    (Sec. V-D1), ``reference`` q_0 (m), ``radius`` r_p (m).
-    """
-    high = (reference - creeps[0] - contact) / radius
-    low = (creeps[1] + contact - reference) / radius
-    return low, high
-
-
 class SeriesSpringModel(KinetostaticModel):
     """f_rod(q, T) + k_s (q - q_0): a TCA and its series spring as one model, Eq. (R3).
 
@@ -366,8 +354,10 @@ class AntagonisticPair:
         theta = self.angle
         nxt = central_difference_step(theta, self.previous_angle, r * (force_1 - force_2),
                                       self.inertia, self.damping, h)  # Eq. (R7)
-        # joint stops where a coil reaches contact (Sec. V-D1): inelastic
-        low, high = joint_stops(self.reference, (a.state.creep, b.state.creep), a._contact, r)
+        # joint stops where a coil reaches contact (Sec. V-D1), Eq. (R5): inelastic
+        stop = a._contact
+        high = (self.reference - a.state.creep - stop) / r
+        low = (b.state.creep + stop - self.reference) / r
         if not low <= nxt <= high:
             nxt = min(max(nxt, low), high)
             theta = nxt
