@@ -5,10 +5,11 @@ import numpy as np
 import pytest
 
 from tca_ros.model import thermal
-from tca_ros.model.dynamics import (central_difference_limit, central_difference_step,
-                                    StabilityError, TcaSimulator)
+from tca_ros.model.dynamics import StabilityError, TcaSimulator
+from tca_ros.model.end_motion import central_difference_step
 from tca_ros.model.kinetostatics import contact_elongation
 from tca_ros.model.simulation import simulate
+from tca_ros.model.substeps import central_difference_limit
 
 
 def _oscillator_error(dt, m=0.03, b=0.5, k=22.5, force=0.3, t_end=0.5):

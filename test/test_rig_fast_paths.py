@@ -87,7 +87,7 @@ def _run_both(pair, schedule, angle=0.0):
             pair.set_dt(dt)
         for _ in range(steps):
             pair.step(power_1, power_2=power_2)
-            n = pair._substeps  # the substeps this step took (re-planned every 100 steps)
+            n = pair.plan.count  # the substeps this step took (re-planned every 100 steps)
             for _ in range(n):
                 ref.substep((power_1, power_2), pair.dt / n)
             got.append(_sample(pair))

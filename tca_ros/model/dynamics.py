@@ -28,9 +28,11 @@ State coordinate: q, the elongation (m) of the free end from the natural length
 l*, positive when stretched; the displacement published is the contraction
 x = q_ref - q from the loaded equilibrium at ambient (positive when shorter).
 
-This module holds the stepper (``TcaSimulator``) and plans its substeps; the
-schemes of (18) (central-difference kernels, backward Euler, friction) are in
-end_motion.py, the heat balance (1) under the drive's dead time in thermal_step.py.
+This module holds the stepper (``TcaSimulator``). The equations it steps are
+written once, for every stepper: eq. (1) and the lags in thermal.py (under the
+drive's dead time in thermal_step.py), eq. (18), its schemes (central
+differences, backward Euler, friction) and the contact stop in end_motion.py;
+its substeps are planned by substeps.py.
 A whole sampled profile is run by ``simulate`` in simulation.py, which also holds
 ``static_displacement``.
 """
@@ -38,22 +40,18 @@ from dataclasses import dataclass
 import math
 
 from tca_ros.model import effects as fx
-from tca_ros.model.end_motion import central_difference_limit, central_difference_step
+from tca_ros.model.end_motion import central_difference_step, contact_stop, creep_step
 from tca_ros.model.end_motion import EndMotion
 from tca_ros.model.kinetostatic_models import make_kinetostatic_model
 from tca_ros.model.kinetostatics import contact_elongation, static_elongation
 from tca_ros.model.limits import check_thread_strength
 from tca_ros.model.resistance import resistance
+from tca_ros.model.substeps import central_difference_limit, creep_limit, MAX_SUBSTEPS
+from tca_ros.model.substeps import stability_error, StabilityError, substep_count, SubstepPlan
+from tca_ros.model.thermal import lag_step
 from tca_ros.model.thermal_step import ThermalStepper
 
-STABILITY_SAFETY = 0.9  # fraction of the central-difference limit 2/omega used per substep
-MAX_SUBSTEPS = 1000  # beyond this, ask for the quasi-static mode instead
-STABILITY_RECHECK = 100  # steps between re-evaluations of the stability limit (k drifts slowly)
 EQUILIBRIUM_TOLERANCE = 0.05  # relative tension error beyond which a start state is refused
-
-
-class StabilityError(ValueError):
-    """The step is beyond the explicit stability limit by more than MAX_SUBSTEPS."""
 
 
 @dataclass
@@ -85,50 +83,6 @@ def checked_dt(dt):
     return float(dt)
 
 
-def creep_limit(stiffness, effects):
-    """Return the substep (s) below which explicit Euler creep decays monotonically.
-
-    The creep element in series with the coil (``stiffness`` k, N/m) relaxes at the
-    rate (1 + C k) / tau_c, not 1 / tau_c: a compliant creep on a stiff coil is
-    stiff. inf (s) without creep.
-    """
-    e = effects
-    if e.creep_compliance <= 0.0:
-        return math.inf
-    return e.creep_time_constant / (1.0 + e.creep_compliance * max(stiffness, 0.0))
-
-
-def substep_count(dt, limit):
-    """Return the number of equal substeps of dt (s) within STABILITY_SAFETY * limit (s).
-
-    MAX_SUBSTEPS + 1 when the limit is zero or not a number, or needs more.
-    """
-    limit = STABILITY_SAFETY * limit
-    if limit == math.inf:
-        return 1
-    if not limit > 0.0 or dt / limit > MAX_SUBSTEPS:  # also a NaN limit
-        return MAX_SUBSTEPS + 1
-    return max(1, math.ceil(dt / limit))
-
-
-def stability_error(mass, mechanical, others, dt):
-    """Return the StabilityError naming the binding limit of a step dt (s).
-
-    ``mechanical`` is 2/omega (s) of a free ``mass`` (kg), ``others`` the thermal
-    and creep limits (s).
-    """
-    if not mechanical > others:
-        return StabilityError(
-            f'dynamics.mass = {mass:g} kg: explicit limit '
-            f'2/omega = {mechanical:.3g} s needs more than {MAX_SUBSTEPS} substeps '
-            f'of dt = {dt:g} s; allowed at most {MAX_SUBSTEPS} '
-            '(use mass 0 for the quasi-static mode or a smaller dt)')
-    return StabilityError(
-        f'thermal or creep limit {others:.3g} s needs more than {MAX_SUBSTEPS} '
-        f'substeps of dt = {dt:g} s (check thermal.*, effects.emissivity, '
-        'effects.convection_exponent, effects.creep_time_constant, or a smaller dt)')
-
-
 class TcaSimulator:
     """Step a TCA: power and load in; temperature, displacement, resistance out.
 
@@ -151,9 +105,11 @@ class TcaSimulator:
         self._heat = ThermalStepper(params)  # eq. (1) and the drive's dead time
         self._contact = contact_elongation(params)
         self._motion = EndMotion(self.kinetostatics, self._contact, params)
-        self._sensor_lag = params.effects.sensor_lag != 0.0
-        self._substeps = 1
-        self._steps_since_check = 0
+        e = params.effects
+        self._sensor_lag = e.sensor_lag != 0.0
+        # the fiber lags of T (degC), each off at its default
+        self._fiber_lags = e.second_thermal_lag > 0.0 or e.hysteresis_width > 0.0
+        self.plan = SubstepPlan(self.check_step)  # substeps per step, re-planned
         self._step_length = None  # s, length of the last substep (q_{i-1} is that far back)
         self.state = TcaState()
         self.reference_elongation = 0.0
@@ -185,7 +141,7 @@ class TcaSimulator:
         self._update_outputs(self.state, 0.0)
         self.state.measured_displacement = self.state.displacement
         self._step_length = None  # at rest: q_{i-1} = q_i holds for any step
-        self._substeps = self.check_step()
+        self.plan.replan(restart=False)
         return self.state
 
     def _check_equilibrium(self, load, temp, elongation, tension):
@@ -220,11 +176,10 @@ class TcaSimulator:
         """
         old, self.dt = self.dt, checked_dt(dt)
         try:
-            self._substeps = self.check_step()
+            self.plan.replan()
         except StabilityError:
             self.dt = old
             raise
-        self._steps_since_check = 0
 
     def _stiffness(self):
         """Return the coil's k = d f_rod / d q (N/m) at the state (contact bounds q)."""
@@ -269,11 +224,7 @@ class TcaSimulator:
         """Advance one dt with power (W) and external tensile load (N); return state."""
         s = self.state
         load = s.load if load is None else float(load)
-        self._steps_since_check += 1
-        if self._steps_since_check >= STABILITY_RECHECK:
-            self._steps_since_check = 0
-            self._substeps = self.check_step()
-        n = self._substeps
+        n = self.plan.next_step()
         h = self.dt / n
         for _ in range(n):
             self._substep(power, load, h)
@@ -286,12 +237,7 @@ class TcaSimulator:
         q, y_c = s.elongation, s.creep
         # eq. (1) first; the explicit step below still uses f_rod(q_i, T_i) (s.tension),
         # the implicit quasi-static steps use T_{i+1}
-        heat = self._heat
-        s.temperature = heat.step(s.temperature, heat.delayed(power, s.time, h), h)
-        s.fiber_temperature = fx.second_lag_step(s.fiber_temperature, s.temperature, h,
-                                                 p.effects)
-        s.actuation_temperature = fx.play_operator(
-            s.fiber_temperature, s.actuation_temperature, p.effects.hysteresis_width)
+        self._heat_up(s, power, h)
         if mass > 0.0 and self._step_length not in (None, h):
             self._motion.rescale_previous(s, q, load, self._step_length, h)
         self._step_length = h
@@ -306,28 +252,38 @@ class TcaSimulator:
         else:
             q_next = y_c + model.equilibrium_elongation(load, s.actuation_temperature,
                                                         guess=q - y_c)
-        s.in_contact = q_next - y_c < self._contact
-        if s.in_contact:
-            q_next = y_c + self._contact
-            q = q_next  # inelastic stop: the coils absorb the momentum
+        q_next, q, s.in_contact = contact_stop(q_next, q, y_c, self._contact)
         s.previous_elongation = q
         s.elongation = q_next
         s.velocity = (q_next - q) / h
         if p.effects.creep_compliance > 0.0:
-            s.creep = y_c + h * fx.creep_rate(y_c, s.tension, p.effects)
+            s.creep = creep_step(y_c, s.tension, h, p.effects)
         s.time += h
         s.power, s.load = power, load
         s.tension = model.tension(s.elongation - s.creep, s.actuation_temperature, s.tension)
         check_thread_strength(s.tension, p.fiber, s.time)  # the thread breaks: end the run
         self._update_outputs(s, h)
 
+    def _heat_up(self, s, power, h):
+        """Advance T (eq. (1)), T_f (second lag) and T_a (hysteresis) of s by h (s)."""
+        heat = self._heat
+        applied = heat.delayed(power, s.time, h) if heat.dead_time > 0.0 else power  # W
+        s.temperature = temp = heat.step(s.temperature, applied, h)
+        if self._fiber_lags:
+            e = self.params.effects
+            s.fiber_temperature = lag_step(s.fiber_temperature, temp, h, e.second_thermal_lag)
+            s.actuation_temperature = fx.play_operator(
+                s.fiber_temperature, s.actuation_temperature, e.hysteresis_width)
+        else:  # both lags off (the common case)
+            s.fiber_temperature = s.actuation_temperature = temp
+
     def _update_outputs(self, s, h):
         p = self.params
         s.displacement = self.reference_elongation - s.elongation
         if self._sensor_lag:
-            s.measured_displacement = fx.lag_filter(s.measured_displacement, s.displacement,
-                                                    h, p.effects)
-        else:  # lag_filter without the lag
+            s.measured_displacement = lag_step(s.measured_displacement, s.displacement, h,
+                                               p.effects.sensor_lag)
+        else:  # the lag off
             s.measured_displacement = s.displacement
         s.resistance = resistance(s.temperature, s.displacement, self.loaded_length,
                                   p.electrical, p.thermal.ambient_temperature)

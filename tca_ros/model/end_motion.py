@@ -1,17 +1,57 @@
-"""Schemes that step the free end's motion, eq. (18) of [1].
+"""The free end's motion, eq. (18) of [1]: its right-hand side and the schemes that step it.
 
-    m x'' + b_t x' + f_rod(x, T) = F_load                                 (18)
+    m q'' + b_t q' + f_rod(q - y_c, T) = F_load                           (18)
+    dy_c/dt = (C f_rod - y_c) / tau_c                                  creep
 
-With mass, central differences (Sec. V-B4), explicit in f_rod; the kernels here
-take one step, find the acceleration, move q_{i-1} when the substep changes and
-give the stability limit. ``EndMotion`` adds the steps that need f_rod: backward
-Euler of the massless damped equation b_t x' + f_rod = F, and Coulomb friction on
-the free end ('friction' in effects.py) in time-stepping form. The stepper that
-uses them is ``TcaSimulator`` in dynamics.py.
+with q the elongation (m) of the free end from l* (stretching positive), y_c the
+creep ('creep' in effects.py) and coil contact a hard, inelastic stop (Sec. V-D1).
+This module is the one home of eq. (18): its rates (``end_acceleration``,
+``massless_speed``, ``creep_step``), its central differences (Sec. V-B4,
+explicit in f_rod: one step, the acceleration, q_{i-1} moved when the substep
+changes) and the contact stop take floats (one muscle) or NumPy arrays (N,)
+(one value per muscle), so the scalar stepper (dynamics.py), the rigs
+(rigs.py), the batch stepper (toolkit/batch.py) and the linearisation
+(toolkit/state_equations.py) evaluate them alike. ``EndMotion`` adds the scalar
+steps that need f_rod: backward Euler of the massless damped equation
+b_t q' + f_rod = F, and Coulomb friction on the free end ('friction' in
+effects.py) in time-stepping form. The stability limits are in substeps.py.
 """
 import math
 
+import numpy as np
+
 from tca_ros.model import effects as fx
+
+
+def end_acceleration(net, velocity, mass, damping):
+    """Return q'' (m/s^2) of eq. (18): (F - f_rod - b_t q') / m; ``net`` F - f_rod (N)."""
+    return (net - damping * velocity) / mass
+
+
+def massless_speed(net, damping):
+    """Return q' (m/s) of eq. (18) without mass: (F - f_rod) / b_t; ``net`` (N)."""
+    return net / damping
+
+
+def creep_step(creep, tension, h, effects):
+    """Return y_c (m) after h (s) of the creep element (explicit Euler), tension F (N)."""
+    return creep + h * fx.creep_rate(creep, tension, effects)
+
+
+def contact_stop(q_next, q, creep, contact):
+    """Return (q_{i+1}, q_i, in contact): the coil-contact stop of Sec. V-D1 applied.
+
+    Where the coil q_{i+1} - y_c (m) passes the contact elongation (m), the end
+    stops there and q_i moves with it: the coils absorb the momentum (inelastic).
+    """
+    if isinstance(q_next, np.ndarray):
+        hit = q_next - creep < contact
+        q_next = np.where(hit, creep + contact, q_next)
+        return q_next, np.where(hit, q_next, q), hit
+    if q_next - creep < contact:
+        q_next = creep + contact
+        return q_next, q_next, True
+    return q_next, q, False
 
 
 def central_difference_step(q, q_prev, force, mass, damping, dt):
@@ -57,13 +97,6 @@ def critical_damping(stiffness, mass):
     gives no overshoot, b_t / k (s) is the mechanical lag behind the statics.
     """
     return 2.0 * math.sqrt(max(stiffness, 0.0) * max(mass, 0.0))
-
-
-def central_difference_limit(stiffness, mass):
-    """Return the stability limit 2 / omega (s) of the central-difference step."""
-    if mass <= 0.0 or stiffness <= 0.0:
-        return math.inf
-    return 2.0 * math.sqrt(mass / stiffness)
 
 
 class EndMotion:

@@ -50,14 +50,16 @@ References
 """
 import math
 
-from tca_ros.model import effects as fx
-from tca_ros.model.dynamics import MAX_SUBSTEPS, STABILITY_RECHECK
-from tca_ros.model.dynamics import StabilityError, substep_count, TcaSimulator
-from tca_ros.model.end_motion import central_difference_limit, central_difference_step
+import numpy as np
+
+from tca_ros.model.dynamics import TcaSimulator
+from tca_ros.model.end_motion import central_difference_step, creep_step
 from tca_ros.model.kinetostatic_models import make_kinetostatic_model
 from tca_ros.model.kinetostatics import KinetostaticModel
 from tca_ros.model.kinetostatics import static_elongation
 from tca_ros.model.params import ParameterError, RIG_MODES
+from tca_ros.model.substeps import central_difference_limit, MAX_SUBSTEPS
+from tca_ros.model.substeps import StabilityError, substep_count, SubstepPlan
 
 DEAD_WEIGHT, SPRING, ISOMETRIC, ANTAGONISTIC = RIG_MODES
 
@@ -89,6 +91,13 @@ def reference_elongation(model, pretension):
 def spring_force(elongation, reference, pretension, stiffness):
     """Return F_s = F_0 + k_s (q_0 - q) (N), Eq. (R2): the series spring's pull."""
     return pretension + stiffness * (reference - elongation)
+
+
+def tendon_force(tension):
+    """Return max(f_rod, 0) (N), Eq. (R6): a tendon only pulls (NaN kept); float or array."""
+    if isinstance(tension, np.ndarray):
+        return np.where(0.0 > tension, 0.0, tension)
+    return 0.0 if 0.0 > tension else tension
 
 
 class SeriesSpringModel(KinetostaticModel):
@@ -165,10 +174,7 @@ class HeldMuscle(TcaSimulator):
     """
 
     def __init__(self, params, model=None, dt=1e-3, kinetostatics=None):
-        e = params.effects
-        # the fiber lags of T (degC) and the creep, each off at its default
-        self._fiber_lags = e.second_thermal_lag > 0.0 or e.hysteresis_width > 0.0
-        self._creeps = e.creep_compliance > 0.0
+        self._creeps = params.effects.creep_compliance > 0.0  # off at its default
         super().__init__(params, model=model, dt=dt, kinetostatics=kinetostatics)
 
     def stability_limit(self):
@@ -192,7 +198,7 @@ class HeldMuscle(TcaSimulator):
         s.load = s.tension
         self._update_outputs(s, 0.0)
         s.measured_displacement = s.displacement
-        self._substeps = self.check_step()
+        self.plan.replan(restart=False)
         return s
 
     def _substep(self, power, load, h):
@@ -201,22 +207,13 @@ class HeldMuscle(TcaSimulator):
     def hold(self, power, elongation, h):
         """Advance h (s) under power (W) with the end at elongation q (m); return state."""
         s = self.state
-        heat = self._heat
-        applied = heat.delayed(power, s.time, h) if heat.dead_time > 0.0 else power  # W
-        s.temperature = temp = heat.step(s.temperature, applied, h)
-        if self._fiber_lags:
-            e = self.params.effects
-            s.fiber_temperature = fx.second_lag_step(s.fiber_temperature, temp, h, e)
-            s.actuation_temperature = fx.play_operator(
-                s.fiber_temperature, s.actuation_temperature, e.hysteresis_width)
-        else:  # both lags off (the common case)
-            s.fiber_temperature = s.actuation_temperature = temp
+        self._heat_up(s, power, h)
         y_c = s.creep
         s.previous_elongation = s.elongation
         s.velocity = (elongation - s.elongation) / h
         s.elongation = elongation
         if self._creeps:
-            s.creep = y_c + h * fx.creep_rate(y_c, s.tension, self.params.effects)
+            s.creep = creep_step(y_c, s.tension, h, self.params.effects)
         coil = elongation - s.creep
         contact = self._contact
         s.in_contact = coil <= contact
@@ -268,6 +265,7 @@ class AntagonisticPair:
         self.damping = rig.joint_damping + 2.0 * rig.pulley_radius ** 2 * params.dynamics.damping
         self.dt = self.agonist.dt
         self.power_2 = 0.0
+        self.plan = SubstepPlan(self.check_step)  # the joint's and both muscles' substeps
         self.reset()
 
     @property
@@ -287,8 +285,7 @@ class AntagonisticPair:
         self.antagonist.reset(temperature=temperature, elongation=self.reference + shift)
         self.angle = self.previous_angle = float(angle)  # rad
         self.velocity = 0.0  # rad/s
-        self._steps_since_check = 0
-        self._substeps = self.check_step()
+        self.plan.replan()
         return self.state
 
     def set_dt(self, dt):
@@ -298,7 +295,7 @@ class AntagonisticPair:
         self.antagonist.set_dt(dt)
         self.dt = self.agonist.dt
         try:
-            self._substeps = self.check_step()
+            self.plan.replan(restart=False)
         except StabilityError:
             self.dt = old
             self.agonist.set_dt(old)
@@ -307,7 +304,8 @@ class AntagonisticPair:
 
     def forces(self):
         """Return (F_1, F_2) (N), Eq. (R6): tendon tensions, zero when slack."""
-        return max(self.agonist.state.tension, 0.0), max(self.antagonist.state.tension, 0.0)
+        return (tendon_force(self.agonist.state.tension),
+                tendon_force(self.antagonist.state.tension))
 
     def joint_stiffness(self):
         """Return r_p^2 (k_1 + k_2) (N m/rad) at the state; a slack tendon adds nothing."""
@@ -342,25 +340,21 @@ class AntagonisticPair:
         """Advance one dt with powers (W) of agonist and antagonist; return its state."""
         if power_2 is not None:
             self.power_2 = float(power_2)
-        self._steps_since_check += 1
-        if self._steps_since_check >= STABILITY_RECHECK:
-            self._steps_since_check = 0
-            self._substeps = self.check_step()
-        h = self.dt / self._substeps
-        for _ in range(self._substeps):
+        n = self.plan.next_step()
+        h = self.dt / n
+        for _ in range(n):
             self._substep(power, self.power_2, h)
         return self.agonist.state
 
     def _substep(self, power_1, power_2, h):
         a, b = self.agonist, self.antagonist
         r = self.radius
-        force_1, force_2 = a.state.tension, b.state.tension  # Eq. (R6), as forces()
-        force_1 = 0.0 if 0.0 > force_1 else force_1  # max(F, 0), NaN kept
-        force_2 = 0.0 if 0.0 > force_2 else force_2
+        force_1 = tendon_force(a.state.tension)  # Eq. (R6), as forces()
+        force_2 = tendon_force(b.state.tension)
         theta = self.angle
         nxt = central_difference_step(theta, self.previous_angle, r * (force_1 - force_2),
                                       self.inertia, self.damping, h)  # Eq. (R7)
-        # joint stops where a coil reaches contact (Sec. V-D1): inelastic
+        # joint stops where a coil reaches contact (Sec. V-D1), Eq. (R5): inelastic
         stop = a._contact
         high = (self.reference - a.state.creep - stop) / r
         low = (b.state.creep + stop - self.reference) / r

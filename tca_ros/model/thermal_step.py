@@ -3,16 +3,17 @@
     m_t c_p dT/dt = -h c_s A_0 (T - T_inf) + P_in                        (1)
 
 with the thermal effects of effects.py (radiation, nonlinear convection, a
-delivered-power ratio, a drive dead time). The power is held over each step
-(zero-order hold): while eq. (1) is linear its step is exact, otherwise it is
-classical Runge-Kutta (error below 1e-9 K per step for dt <= 10 ms, tau = 3 s).
-``ThermalStepper`` is held by the stepper of dynamics.py (and its rigs).
+delivered-power ratio) written in thermal.py, and here the drive's dead time.
+The power is held over each step (zero-order hold): while eq. (1) is linear its
+step is exact, otherwise it is classical Runge-Kutta (error below 1e-9 K per
+step for dt <= 10 ms, tau = 3 s). ``ThermalStepper`` is held by the stepper of
+dynamics.py (and its rigs).
 """
 import collections
 import math
 
-from tca_ros.model import effects as fx
-from tca_ros.model.thermal import heat_capacity, surface_area, thermal_conductance
+from tca_ros.model.thermal import heat_decay, heat_loss_slope, heat_rate, heat_step_exact
+from tca_ros.model.thermal import heat_step_rk4, HeatBalance
 
 RK4_REAL_LIMIT = 2.785  # h lambda on the negative real axis where classical RK4 turns unstable
 THERMAL_CHECK_RISE = 300.0  # K above ambient at which the nonlinear thermal limit is also taken
@@ -28,29 +29,21 @@ class ThermalStepper:
 
     Attributes
     ----------
-    heat_capacity : float
-        m_t c_p (J/K).
-    conductance : float
-        h c_s A_0 (W/K).
-    area : float
-        Radiating surface (m^2).
+    balance : HeatBalance
+        The coefficients of eq. (1) (thermal.py), the thermal effects included.
     ambient : float
         T_inf (degC), including an ambient offset effect.
+    linear : bool
+        Whether eq. (1) is linear in T (no radiation, n = 0): exact steps.
     dead_time : float
         Delay d (s) of the drive.
     """
 
     def __init__(self, params):
         self.params = params
-        self.heat_capacity = heat_capacity(params.fiber)
-        self.conductance = thermal_conductance(params.fiber, params.thermal)
-        self.area = surface_area(params.fiber)
-        self.ambient = fx.true_ambient(params.thermal, params.effects)
-        self.linear = (params.effects.emissivity == 0.0
-                       and params.effects.convection_exponent == 0.0)
-        # W heating the fiber per W logged (heating_power is linear in P)
-        self.heating_gain = fx.heating_power(1.0, params.effects,
-                                             params.thermal.delivered_power_ratio)
+        self.balance = HeatBalance.of(params)
+        self.ambient = self.balance.ambient
+        self.linear = self.balance.linear
         self.dead_time = params.effects.dead_time  # s
         self._decay_step = None  # s, the substep self._decay (-) was computed for
         self._decay = None
@@ -88,26 +81,16 @@ class ThermalStepper:
 
     def rate(self, temp, power):
         """Return dT/dt (K/s) of eq. (1) with the thermal effects at T (degC), P (W)."""
-        e = self.params.effects
-        ambient = self.ambient
-        loss = self.conductance * (temp - ambient) * fx.convection_factor(temp, ambient, e)
-        loss += fx.radiation_loss(temp, ambient, self.area, e)
-        heating = fx.heating_power(power, e, self.params.thermal.delivered_power_ratio)
-        return (heating - loss) / self.heat_capacity
+        return heat_rate(temp, power, self.balance)
 
     def step(self, temp, power, h):
         """Return T (degC) after h (s), power (W) held: exact if linear, else RK4."""
         if self.linear:
-            target = self.ambient + self.heating_gain * power / self.conductance
             if h != self._decay_step:  # exp(-h G / C) is kept while h is (G, C are fixed)
                 self._decay_step = h
-                self._decay = math.exp(-h * self.conductance / self.heat_capacity)
-            return target + (temp - target) * self._decay
-        k1 = self.rate(temp, power)
-        k2 = self.rate(temp + 0.5 * h * k1, power)
-        k3 = self.rate(temp + 0.5 * h * k2, power)
-        k4 = self.rate(temp + h * k3, power)
-        return temp + h * (k1 + 2.0 * k2 + 2.0 * k3 + k4) / 6.0
+                self._decay = heat_decay(h, self.balance)
+            return heat_step_exact(temp, power, self._decay, self.balance)
+        return heat_step_rk4(temp, power, h, self.balance)
 
     def limit(self, temp):
         """Return the largest stable substep (s) of the RK4 update at T (degC) (inf if exact).
@@ -118,12 +101,8 @@ class ThermalStepper:
         """
         if self.linear:
             return math.inf
-        e = self.params.effects
+        b = self.balance
         rate = 0.0
         for t in (temp, self.ambient + THERMAL_CHECK_RISE):
-            convection = self.conductance * (1.0 + e.convection_exponent) \
-                * fx.convection_factor(t, self.ambient, e)
-            radiation = 4.0 * e.emissivity * fx.STEFAN_BOLTZMANN * self.area * (
-                abs(t) + fx.KELVIN) ** 3
-            rate = max(rate, (convection + radiation) / self.heat_capacity)
+            rate = max(rate, heat_loss_slope(t, b) / b.capacity)
         return RK4_REAL_LIMIT / rate if rate > 0.0 else math.inf

@@ -1,7 +1,9 @@
 """Step N TCAs at once with NumPy: eqs. (1) and (18) as TcaSimulator steps them.
 
-Each muscle may have its own parameters. One physics step, as in
-tca_ros.model.dynamics.TcaSimulator._substep (no effects switched on):
+Each muscle may have its own parameters. One physics step calls the equations
+TcaSimulator calls, written once for floats and arrays (eq. (1) and the lags in
+model/thermal.py, eq. (18) and the contact stop in model/end_motion.py, the
+substeps planned by model/substeps.py); without effects it is
 
     T_{i+1} = T_ss + (T_i - T_ss) exp(-h / tau),  T_ss = T_inf + P_in / (h c_s A_0)   (1)
     m (q_{i+1} - 2 q_i + q_{i-1}) / h^2 + b (q_{i+1} - q_{i-1}) / (2 h)
@@ -22,12 +24,13 @@ import math
 
 import numpy as np
 
-from tca_ros.model import effects as fx
-from tca_ros.model.dynamics import MAX_SUBSTEPS, STABILITY_RECHECK, STABILITY_SAFETY
-from tca_ros.model.dynamics import StabilityError
+from tca_ros.model.end_motion import central_difference_step, contact_stop
 from tca_ros.model.kinetostatics import contact_elongation
+from tca_ros.model.resistance import resistance
 from tca_ros.model.rod_model import helix_elongation
-from tca_ros.model.thermal import heat_capacity, thermal_conductance
+from tca_ros.model.substeps import central_difference_limit, MAX_SUBSTEPS, StabilityError
+from tca_ros.model.substeps import substep_count, SubstepPlan
+from tca_ros.model.thermal import heat_decay, heat_step_exact, HeatBalance, lag_step
 from tca_ros.toolkit.batch_forces import cst_tension, MuscleArrays, RodTables
 
 BATCH_MODELS = ('cst', 'rod')
@@ -52,6 +55,15 @@ def _checked(params_list, model):
         if model == 'rod' and p.coil.shape != 'helix':
             raise ValueError(f'muscle {k}: coil.shape = {p.coil.shape!r}: the rod model needs '
                              'a helix')
+
+
+@dataclass(frozen=True)
+class ElectricalArrays:
+    """The resistance law's parameters (model/resistance.py), arrays (N,)."""
+
+    resistance: np.ndarray  # ohm, R0
+    temperature_coefficient: np.ndarray  # 1/K, beta_T
+    strain_coefficient: np.ndarray  # -, beta_x
 
 
 @dataclass
@@ -103,20 +115,17 @@ class BatchSimulator:
             return np.array([float(getter(p)) for p in plist])
         self.mass = gather(lambda p: p.dynamics.mass)  # kg
         self.damping = gather(lambda p: p.dynamics.damping)  # N s/m
-        self.capacity = gather(lambda p: heat_capacity(p.fiber))  # J/K
-        self.conductance = gather(lambda p: thermal_conductance(p.fiber, p.thermal))  # W/K
-        self.true_ambient = gather(lambda p: fx.true_ambient(p.thermal, p.effects))  # degC
-        self.heating_gain = gather(lambda p: fx.heating_power(
-            1.0, p.effects, p.thermal.delivered_power_ratio))  # W heating per W logged
+        self.heat = HeatBalance.gather(plist)  # eq. (1)'s coefficients, (N,) each
         self.contact = gather(contact_elongation)  # m (-inf: none)
         self.second_lag = gather(lambda p: p.effects.second_thermal_lag)  # s
         self.sensor_lag = gather(lambda p: p.effects.sensor_lag)  # s
-        self.r0 = gather(lambda p: p.electrical.resistance)  # ohm
-        self.beta_t = gather(lambda p: p.electrical.temperature_coefficient)  # 1/K
-        self.beta_x = gather(lambda p: p.electrical.strain_coefficient)  # -
+        # R0 (ohm), beta_T (1/K), beta_x (-) of model/resistance.py, (N,) each
+        self.electrical = ElectricalArrays(
+            gather(lambda p: p.electrical.resistance),
+            gather(lambda p: p.electrical.temperature_coefficient),
+            gather(lambda p: p.electrical.strain_coefficient))
         self.default_load = gather(lambda p: p.dynamics.load)  # N
-        self._substeps = 1
-        self._steps_since_check = 0
+        self.plan = SubstepPlan(self.check_step)  # substeps per step, re-planned
         self.reset()
 
     # -- f_rod -------------------------------------------------------------------------
@@ -180,7 +189,7 @@ class BatchSimulator:
         """Return every muscle to its loaded equilibrium at ambient under load (N)."""
         load = self.default_load if load is None else np.broadcast_to(
             np.asarray(load, dtype=float), (self.n,)).copy()
-        temp = self.true_ambient.copy()
+        temp = self.heat.ambient.copy()
         q = self.equilibrium(load, temp)
         self.reference_elongation = q.copy()
         self.loaded_length = self.c.natural_length + q
@@ -191,29 +200,24 @@ class BatchSimulator:
                                 tension=tension, displacement=zero.copy(),
                                 measured_displacement=zero.copy(),
                                 resistance=self._resistance(temp, zero), load=load)
-        self._substeps = self.check_step()
-        self._steps_since_check = 0
+        self.plan.replan()
         return self.state
 
     def check_step(self):
         """Return the substeps per dt the stiffest muscle needs (2/omega limit, eq. (18))."""
-        s = self.state if hasattr(self, 'state') else None
+        s = self.state
         k = self.stiffness(np.maximum(s.elongation, self.contact), s.fiber_temperature,
                            s.tension)
-        with np.errstate(divide='ignore', invalid='ignore'):
-            limit = np.where(k > 0.0, 2.0 * np.sqrt(self.mass / k), math.inf)
-        limit = STABILITY_SAFETY * float(np.min(limit))
-        if limit == math.inf:
-            return 1
-        if not limit > 0.0 or self.dt / limit > MAX_SUBSTEPS:
+        n = substep_count(self.dt, central_difference_limit(k, self.mass))
+        if n > MAX_SUBSTEPS:
             raise StabilityError(f'dt = {self.dt:g} s needs more than {MAX_SUBSTEPS} substeps '
                                  'for the stiffest muscle; use a smaller dt')
-        return max(1, math.ceil(self.dt / limit))
+        return n
 
     def _resistance(self, temp, contraction):
         """Return R (ohm) per muscle, the law of model/resistance.py (D10)."""
-        return self.r0 * (1.0 + self.beta_t * (temp - self.c.ambient)
-                          + self.beta_x * contraction / self.loaded_length)
+        return resistance(temp, contraction, self.loaded_length, self.electrical,
+                          self.c.ambient)
 
     # -- stepping ----------------------------------------------------------------------
     def step(self, power, load=None):
@@ -222,12 +226,9 @@ class BatchSimulator:
         power = np.broadcast_to(np.asarray(power, dtype=float), (self.n,))
         if load is not None:
             s.load = np.broadcast_to(np.asarray(load, dtype=float), (self.n,)).copy()
-        self._steps_since_check += 1
-        if self._steps_since_check >= STABILITY_RECHECK:
-            self._steps_since_check = 0
-            self._substeps = self.check_step()
-        h = self.dt / self._substeps
-        for _ in range(self._substeps):
+        n = self.plan.next_step()
+        h = self.dt / n
+        for _ in range(n):
             self._substep(power, h)
         return s
 
@@ -240,32 +241,21 @@ class BatchSimulator:
 
     def _substep(self, power, h):
         s = self.state
-        target = self.true_ambient + self.heating_gain * power / self.conductance
-        s.temperature = target + (s.temperature - target) * np.exp(
-            -h * self.conductance / self.capacity)  # Eq. (1), exact under held power
-        lagged = self.second_lag > 0.0
-        s.fiber_temperature = np.where(lagged, s.temperature + (
-            s.fiber_temperature - s.temperature) * np.exp(-h / np.where(lagged,
-                                                                        self.second_lag, 1.0)),
-            s.temperature)
+        s.temperature = heat_step_exact(s.temperature, power, heat_decay(h, self.heat),
+                                        self.heat)  # Eq. (1), exact under held power
+        s.fiber_temperature = lag_step(s.fiber_temperature, s.temperature, h, self.second_lag)
         q = s.elongation
-        a = self.mass / (h * h)
-        c = self.damping / (2.0 * h)
-        q_next = (s.load - s.tension + a * (2.0 * q - s.previous_elongation)
-                  + c * s.previous_elongation) / (a + c)  # Eq. (18), central differences
-        contact = q_next < self.contact
-        q_next = np.where(contact, self.contact, q_next)
-        q = np.where(contact, q_next, q)  # inelastic stop
+        q_next = central_difference_step(q, s.previous_elongation, s.load - s.tension,
+                                         self.mass, self.damping, h)  # Eq. (18)
+        q_next, q, _ = contact_stop(q_next, q, 0.0, self.contact)  # inelastic stop
         s.previous_elongation = q
         s.elongation = q_next
         s.velocity = (q_next - q) / h
         s.time += h
         s.tension = self.tension(q_next, s.fiber_temperature, s.tension)
         s.displacement = self.reference_elongation - q_next
-        sensed = self.sensor_lag > 0.0
-        s.measured_displacement = np.where(sensed, s.displacement + (
-            s.measured_displacement - s.displacement) * np.exp(
-                -h / np.where(sensed, self.sensor_lag, 1.0)), s.displacement)
+        s.measured_displacement = lag_step(s.measured_displacement, s.displacement, h,
+                                           self.sensor_lag)
         s.resistance = self._resistance(s.temperature, s.displacement)
 
 

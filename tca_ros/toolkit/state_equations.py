@@ -5,7 +5,9 @@ The nonlinear side of the small-signal toolkit (linearize.py differentiates it):
 ``state_rate`` and ``plant_outputs`` in python-control's order (t, x, u, plant),
 and ``operating_point``, the equilibrium under constant power (or voltage) and
 load. The equations, the states and the outputs are listed in linearize.py's
-docstring; assumptions and their reasons: docs/toolkit.md.
+docstring; their right-hand sides are the steppers' own (eq. (1) and the lags
+in model/thermal.py, eq. (18) and the creep in model/end_motion.py);
+assumptions and their reasons: docs/toolkit.md.
 
 References
 ----------
@@ -18,10 +20,11 @@ import numpy as np
 from scipy.optimize import brentq
 
 from tca_ros.model import effects as fx
+from tca_ros.model.end_motion import end_acceleration, massless_speed
 from tca_ros.model.kinetostatic_models import make_kinetostatic_model
 from tca_ros.model.kinetostatics import contact_elongation, KinetostaticModel
 from tca_ros.model.resistance import power_from_voltage, resistance
-from tca_ros.model.thermal import heat_capacity, surface_area, thermal_conductance
+from tca_ros.model.thermal import heat_rate, HeatBalance, lag_rate, steady_temperature
 
 DRIVES = ('power', 'voltage')
 MAX_RISE = 5000.0  # K above ambient searched for the nonlinear thermal equilibrium
@@ -37,9 +40,9 @@ class PlantModel:
     Parameters
     ----------
     params : TcaParams
-        The TCA (config/*.yaml).
+        The TCA whose plant is wanted (a config/*.yaml loaded).
     model : str, optional
-        Kinetostatic model rod | cst | love (default ``params.model``).
+        Its kinetostatic model: rod | cst | love (default ``params.model``).
     drive : str
         'power' (input P in W) or 'voltage' (input V in V, P = V^2 / R).
     """
@@ -58,10 +61,8 @@ class PlantModel:
         self.drive = drive
         self.kinetostatics = make_kinetostatic_model(params, model)
         self.model = self.kinetostatics.name
-        self.capacity = heat_capacity(params.fiber)  # J/K
-        self.conductance = thermal_conductance(params.fiber, params.thermal)  # W/K
-        self.area = surface_area(params.fiber)  # m^2
-        self.ambient = fx.true_ambient(params.thermal, e)  # degC
+        self.heat = HeatBalance.of(params)  # eq. (1)'s coefficients
+        self.ambient = self.heat.ambient  # degC, T_inf with the offset
         self.contact = contact_elongation(params)  # m
         d = params.dynamics
         names = ['temperature']
@@ -114,16 +115,6 @@ def applied_power(x, u, plant):
     return power_from_voltage(u[0], plant_outputs(0.0, x, u, plant, true=True)[2])
 
 
-def thermal_rate(temp, power, plant):
-    """Return dT/dt (K/s) of Eq. (1) with the thermal effects at T (degC), P (W)."""
-    p, e = plant.params, plant.params.effects
-    loss = plant.conductance * (temp - plant.ambient) * fx.convection_factor(
-        temp, plant.ambient, e)
-    loss += fx.radiation_loss(temp, plant.ambient, plant.area, e)
-    heating = fx.heating_power(power, e, p.thermal.delivered_power_ratio)
-    return (heating - loss) / plant.capacity
-
-
 def state_rate(t, x, u, plant):
     """Return dx/dt of the plant (SI units per s) at state x, input u = [P or V, F].
 
@@ -134,9 +125,9 @@ def state_rate(t, x, u, plant):
     rate = np.zeros(len(plant.states))
     temp = x[0]
     fiber = _get(x, plant, 'fiber_temperature', temp)
-    rate[0] = thermal_rate(temp, applied_power(x, u, plant), plant)  # Eq. (1)
+    rate[0] = heat_rate(temp, applied_power(x, u, plant), plant.heat)  # Eq. (1)
     if 'fiber_temperature' in plant.index:
-        rate[plant.index['fiber_temperature']] = (temp - fiber) / e.second_thermal_lag
+        rate[plant.index['fiber_temperature']] = lag_rate(fiber, temp, e.second_thermal_lag)
     q, creep = coil_elongation(x, u, plant)
     tension = plant.kinetostatics.tension(q - creep, fiber)
     if 'elongation' in plant.index:
@@ -144,14 +135,14 @@ def state_rate(t, x, u, plant):
         if d.mass > 0.0:
             v = x[plant.index['velocity']]
             rate[plant.index['elongation']] = v
-            rate[plant.index['velocity']] = (net - d.damping * v) / d.mass
+            rate[plant.index['velocity']] = end_acceleration(net, v, d.mass, d.damping)
         else:
-            rate[plant.index['elongation']] = net / d.damping
+            rate[plant.index['elongation']] = massless_speed(net, d.damping)
     if 'creep' in plant.index:
         rate[plant.index['creep']] = fx.creep_rate(creep, tension, e)
     if 'sensor' in plant.index:
         true_x = plant.reference_elongation - q
-        rate[plant.index['sensor']] = (true_x - x[plant.index['sensor']]) / e.sensor_lag
+        rate[plant.index['sensor']] = lag_rate(x[plant.index['sensor']], true_x, e.sensor_lag)
     return rate
 
 
@@ -190,13 +181,12 @@ class OperatingPoint:
 
 def equilibrium_temperature(power, plant):
     """Return T (degC) where Eq. (1) is at rest under power (W); brentq if nonlinear."""
-    e = plant.params.effects
-    heating = fx.heating_power(power, e, plant.params.thermal.delivered_power_ratio)
-    if e.emissivity == 0.0 and e.convection_exponent == 0.0:
-        return plant.ambient + heating / plant.conductance
-    if heating <= 0.0:
+    heat = plant.heat
+    if heat.linear:
+        return steady_temperature(power, heat)
+    if heat.gain * power <= 0.0:
         return plant.ambient
-    return brentq(lambda temp: thermal_rate(temp, power, plant), plant.ambient,
+    return brentq(lambda temp: heat_rate(temp, power, heat), plant.ambient,
                   plant.ambient + MAX_RISE, xtol=1e-10)
 
 
