@@ -287,9 +287,11 @@ def build_parser():
     sp = sub.add_parser('simulate', formatter_class=fmt,
                         help='dynamics for a power (W) / load (N) profile CSV')
     common(sp)
-    sp.add_argument('--input', required=True,
-                    help='CSV with columns time,power[,load] (W, N); isometric rig: '
-                         'time,power; antagonistic rig: time,power[,power_2] (docs/rigs.md)')
+    source = sp.add_mutually_exclusive_group(required=True)
+    source.add_argument('--input',
+                        help='CSV (path or shipped name, e.g. profile_steps) with columns '
+                             'time,power[,load] (W, N); isometric rig: '
+                             'time,power; antagonistic rig: time,power[,power_2] (docs/rigs.md)')
     sp.add_argument('--rig', choices=RIG_MODES, default=None,
                     help="load rig (default: the config's rig.mode; its parameters rig.* "
                          'come from the config)')
@@ -301,6 +303,8 @@ def build_parser():
     sp.add_argument('--max-steps', type=count, default=MAX_SIM_STEPS,
                     help='refuse runs of more physics steps per simulation (limit on time)')
     sp.set_defaults(func=cmd_simulate)
+    from tca_ros.cli_compare import add_simulate_options  # --compare, --out, --plot
+    add_simulate_options(sp, source, cmd_simulate)
 
     sp = sub.add_parser('bench', formatter_class=fmt,
                         help='benchmark the dynamics of each model (printed figures)')
