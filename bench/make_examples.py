@@ -19,8 +19,8 @@ import os
 
 import numpy as np
 
-from tca_ros.diagnosis.record import Record
 from tca_ros.diagnosis.data import write_csv_record
+from tca_ros.diagnosis.record import Record
 from tca_ros.model.params import GRAVITY, load_params
 from tca_ros.model.simulation import simulate
 
@@ -39,7 +39,7 @@ RECORDS = {
     'rec_0p5W_30g': (0.5, 0.030, True),
     'rec_1W_30g': (1.0, 0.030, True),
     'rec_1p5W_30g': (1.5, 0.030, True),
-    'rec_1W_50g': (1.0, 0.050, False),  # no thermometer: the optional column left out
+    'rec_1W_50g': (1.0, 0.050, True),
 }
 # name -> (header, rows): each row holds from its time to the next (zero-order hold)
 PROFILES = {

@@ -1,4 +1,4 @@
-"""`tca_sim simulate --compare REC... --out DIR` and `simulate --plot FILE`: model over measurement.
+"""`tca_sim simulate --compare REC... --out DIR` and `--plot FILE`: model over measurement.
 
 ``--compare`` reads each record (docs/records.md), simulates its own inputs (time,
 power, load columns; the record's hanging mass ``# mass_kg:`` and ``# supply:``
@@ -94,7 +94,10 @@ class _Tee(io.StringIO):
 
 
 def _resolve(name, option, prefix):
+    """Return the file of a path or shipped name; a missing path is left to its reader."""
     path = resolve_example(name)
+    if path is None and os.path.basename(name) != name:
+        return name  # the reader names it (cannot open / no such file)
     if path is None:
         raise InputError(f'{option} = {clip(name)!r}: no such file, and not a shipped '
                          f'example ({", ".join(shipped_examples(prefix))})')
