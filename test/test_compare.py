@@ -150,3 +150,14 @@ def test_a_record_without_temperature_leaves_its_error_empty(tmp_path):
     row = rows_of(text)[0]
     assert status == 0 and row['temperature_rmse_k'] == ''
     assert float(row['resistance_rmse_ohm']) > 0.05 and is_png(row['plot'])
+
+
+def test_the_examples_are_package_data(tmp_path):
+    import subprocess
+    import sys
+    build = subprocess.run([sys.executable, 'setup.py', '-q', 'build', '--build-base',
+                            str(tmp_path)], cwd=ROOT, capture_output=True, text=True)
+    assert build.returncode == 0, build.stderr
+    shipped = tmp_path / 'lib' / 'tca_ros' / 'data' / 'examples'
+    assert sorted(p.name for p in shipped.iterdir()) == sorted(
+        ['README.md'] + [n + '.csv' for n in shipped_examples()])
