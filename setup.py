@@ -17,7 +17,8 @@ setup(
         ('share/' + package_name + '/launch', glob('launch/*.launch.py')),
         ('share/' + package_name + '/rviz', glob('rviz/*.rviz')),
     ],
-    package_data={package_name: ['data/*.csv']},
+    package_data={package_name: [
+        'data/*.csv', 'data/examples/*.csv', 'data/examples/README.md']},
     install_requires=['setuptools'],
     zip_safe=True,
     maintainer='tca_ros developers',

@@ -9,6 +9,8 @@ from tca_ros.diagnosis.data import clip, MAX_LOAD_N, MAX_POWER_W, parse_number, 
 
 # -- input profiles -------------------------------------------------------------------
 PROFILE_COLUMNS = ('time', 'power', 'load')  # the dead-weight rig's input columns
+# a record's measured columns (docs/records.md): read and checked as numbers, not used
+MEASURED_COLUMNS = ('displacement', 'temperature', 'resistance', 'force')
 
 
 def read_profile(path, max_rows=None):
@@ -57,7 +59,8 @@ def read_profile_columns(path, max_rows=None, allowed=PROFILE_COLUMNS):
         i = int(bad[0]) + 1
         raise InputError(f"{path}: row {header_row + i + 1}, column 'time': {t[i]:g} s is "
                          f'not after {t[i - 1]:g} s (time must increase)')
-    return {name: np.array(values) for name, values in data.items()}
+    return {name: np.array(values) for name, values in data.items()
+            if name not in MEASURED_COLUMNS}
 
 
 def _check_profile_header(header, path, row, allowed=PROFILE_COLUMNS):
@@ -66,7 +69,7 @@ def _check_profile_header(header, path, row, allowed=PROFILE_COLUMNS):
         if name not in header:
             raise InputError(f"{path}: row {row}: missing column '{name}' "
                              f"(found {clip(','.join(header))}; allowed {names})")
-    unknown = [h for h in header if h not in allowed]
+    unknown = [h for h in header if h not in allowed and h not in MEASURED_COLUMNS]
     if unknown:
         raise InputError(f'{path}: row {row}: unknown column {clip(unknown[0])!r} '
                          f'(allowed {names})')

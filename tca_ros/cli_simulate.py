@@ -42,9 +42,11 @@ def add_parser(subparsers, common):
                     'time,power,load,displacement,temperature,resistance; s, W, N, m, '
                     'degC, ohm) at --rate.', epilog=EXAMPLE)
     common(sp)
-    sp.add_argument('--input', required=True,
-                    help='CSV with columns time,power[,load] (W, N); isometric rig: '
-                         'time,power; antagonistic rig: time,power[,power_2] (docs/rigs.md)')
+    source = sp.add_mutually_exclusive_group(required=True)
+    source.add_argument('--input',
+                        help='CSV (path or shipped name, e.g. profile_steps) with columns '
+                             'time,power[,load] (W, N); isometric rig: time,power; '
+                             'antagonistic rig: time,power[,power_2] (docs/rigs.md)')
     sp.add_argument('--rig', choices=RIG_MODES, default=None,
                     help="load rig (default: the config's rig.mode; its parameters rig.* "
                          'come from the config)')
@@ -56,6 +58,8 @@ def add_parser(subparsers, common):
     sp.add_argument('--max-steps', type=count, default=MAX_SIM_STEPS,
                     help='refuse runs of more physics steps per simulation (limit on time)')
     sp.set_defaults(func=cmd_simulate)
+    from tca_ros.cli_compare import add_simulate_options  # --compare, --out, --plot
+    add_simulate_options(sp, source, cmd_simulate)
 
 
 def cmd_simulate(args, out):
