@@ -95,7 +95,7 @@ def steady_temperature(params, power):
     from scipy.optimize import brentq
     heat = ThermalStepper(params)
     if heat.linear:
-        return heat.ambient + heat.heating_gain * power / heat.conductance
+        return heat.ambient + heat.balance.gain * power / heat.balance.conductance
     top = heat.ambient + MAX_STEADY_RISE
     if power <= 0.0 or heat.rate(top, power) > 0.0:
         return heat.ambient if power <= 0.0 else top
