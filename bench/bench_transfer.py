@@ -47,6 +47,7 @@ MUSCLES = {
                                 mass=0.04),
 }
 VARIANTS = {
+    'default': None,  # calibration.default_fit: the lag; the curvature on 2+ power levels
     'physical priors': (),
     '+ curvature': ('expansion_zero_temperature',),
     '+ actuation lag': ('actuation_lag',),
@@ -63,7 +64,7 @@ def held_out(records, params, model, extra):
     for cond in sorted(groups):
         train = [r for c, rs in groups.items() if c != cond for r in rs]
         cal = calibrate(train, params, model=model, check=False,
-                        fit=list(DEFAULT_FIT) + list(extra))
+                        fit=None if extra is None else list(DEFAULT_FIT) + list(extra))
         bad |= {row.name for row in cal.plausibility() if row.implausible}
         ours += full_nrmse(cal.params, groups[cond], cal.model)
         lumped += lumped_nrmse(fit_lumped(train).values, groups[cond])
@@ -97,8 +98,9 @@ def main(argv=None):
             ours, lumped, bad = held_out(records, params, args.model, VARIANTS[variant])
             seconds = time.perf_counter() - start
             lumped_row[name] = float(np.median(lumped))
-            cells.append(f'{np.median(ours):>8.1%} [{len(bad)}] {seconds:>4.0f} s'
-                         + (f' {",".join(sorted(b[:8] for b in bad))}' if bad else ''))
+            cells.append(f'{np.median(ours):>8.1%} [{len(bad)}] {seconds:>4.0f} s')
+            if bad:
+                print(f'  {variant}, {name}: implausible {", ".join(sorted(bad))}')
         print(f'{variant:<20s}' + ''.join(f'{c:>26s}' for c in cells), flush=True)
     for name, records in data.items():
         floor = [f for f in repeat_floor(records) if f == f]
