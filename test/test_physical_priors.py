@@ -135,3 +135,28 @@ def test_config_new_takes_the_strength_or_derives_it_from_the_diameter(tmp_path)
     assert load_params(str(tmp_path / 'c.yaml')).fiber.break_force == 5.5
     assert main(args + ['--out', str(tmp_path / 'd.yaml'), '--thread-diameter', '0.00042',
                         '--break-force', '-1']) == 2
+
+
+def test_a_measured_description_reveals_a_power_loss_that_a_guessed_one_absorbs():
+    # 25 % of the logged power never heats the thread; no thermometer. Described as
+    # measured (1-5 %), the heat loss, gain and delivered power cannot all take the loss:
+    # the calibration says which left the description and names power_loss among the
+    # effects it can stand for. Described as guessed (x/÷ 3), the same loss is absorbed.
+    start = describe_muscle(SALP).params
+    truth = start.with_values(**{'effects.power_loss_fraction': 0.25})
+    rng = np.random.default_rng(3)
+    records = [bench_record(truth, w, 0.02, rng, drift=0.0) for w in (0.3, 0.45, 0.6)]
+    names = ('heat_capacity', 'heat_loss', 'actuation_gain', 'stiffness_scale',
+             'delivered_power_ratio')
+    tight = {f'uncertainty.{n}': 0.03 for n in names}
+    loose = {f'uncertainty.{n}': 2.0 for n in names}
+    measured = calibrate(records, start.with_values(**tight), model='cst', check=False,
+                         physics=False)
+    guessed = calibrate(records, start.with_values(**loose), model='cst', check=False,
+                        physics=False)
+    found = measured.findings()
+    assert found and any('power_loss' in effects for _, _, effects in found), found
+    assert not guessed.findings(), guessed.findings()
+    text = format_summary(measured)
+    assert 'measured: heat_capacity (0.03)' in text and 'finding:' in text
+    assert 'guessed: heat_capacity (2)' in format_summary(guessed)

@@ -218,6 +218,23 @@ class Calibration:
                     'steady_rise', 'K/W', 1.0 / g.value, sg / g.value, 1.0 / g.prior,
                     g.determined)}
 
+    def findings(self):
+        """Return [(name, z, catalogue effects)] of values beyond their stated uncertainty.
+
+        A calibrated value more than SHIFT_Z prior spreads from the description (and
+        still plausible; an implausible one is reported as such) is a finding: the
+        effects are those of physical_priors.stands_for.
+        """
+        from tca_ros.diagnosis.physical_priors import stands_for
+        tau_z = None
+        if 'heat_capacity' in self.priors and 'heat_loss' in self.priors:
+            v, pr = self.report.values, self.priors
+            shift = (np.log(v['heat_capacity'] / pr['heat_capacity'].prior)
+                     - np.log(v['heat_loss'] / pr['heat_loss'].prior))
+            tau_z = float(shift / np.hypot(pr['heat_capacity'].spread, pr['heat_loss'].spread))
+        return [(r.name, r.z, stands_for(r.name, tau_z)) for r in self.plausibility()
+                if r.shifted and not r.implausible]
+
     def combinations(self):
         """Return [(a, b, 'product'|'ratio', relative spread)] the records fix jointly only."""
         from tca_ros.diagnosis.physical_priors import degenerate_combinations

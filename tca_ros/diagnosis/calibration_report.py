@@ -90,6 +90,7 @@ def format_plausibility(cal):
         flag = '  IMPLAUSIBLE' if row.implausible else '  SHIFTED' if row.shifted else ''
         lines.append(f'{row.name:<28s}{row.value:>11.4g}{row.prior:>11.4g}{row.z:>7.1f}'
                      f'{ref}{ratio}  {limits} {row.unit}{flag}')
+    lines += prior_kinds(cal)
     values = {r.name: r.value for r in rows}
     if 'heat_capacity' in values and 'heat_loss' in values:
         tau = values['heat_capacity'] / values['heat_loss']
@@ -102,11 +103,11 @@ def format_plausibility(cal):
     for a, b, kind, spread in cal.combinations():
         lines.append(f'the records fix the {kind} of {a} and {b} (to {spread:.0%}), not each: '
                      'each is held near its prior')
-    moved = [f'{r.name} (z = {r.z:+.1f})' for r in rows if r.shifted and not r.implausible]
-    if moved:
-        lines.append('finding: ' + ', '.join(moved) + ' left the description by more than '
-                     'its stated uncertainty: the muscle differs there, or an effect the '
-                     'model lacks stands in (`tca_sim diagnose`)')
+    for name, z, effects in cal.findings():
+        lines.append(f'finding: {name} moved z = {z:+.1f} prior spreads from the description '
+                     '(beyond its stated uncertainty): the muscle differs there, or '
+                     + (' or '.join(effects) if effects else 'an effect the model lacks')
+                     + ' stands in (`tca_sim diagnose` tests it)')
     bad = [r.name for r in rows if r.implausible]
     if bad:
         lines.append('warning: implausible ' + ', '.join(bad) + ': outside the physical limits '
@@ -116,3 +117,26 @@ def format_plausibility(cal):
         lines.append('note: no temperature or resistance channel: temperatures are the '
                      "priors' (heat_loss, delivered_power_ratio), not measured")
     return lines
+
+
+MEASURED_U, GUESSED_U = 0.1, 1.0  # relative uncertainties (uncertainty.*) of the kinds
+
+
+def prior_kinds(cal):
+    """Return the line saying which values the description gave as measured or guessed.
+
+    A tight prior (measured) reveals an effect as a finding; a loose one (guessed)
+    lets the calibration absorb it without a word.
+    """
+    from tca_ros.diagnosis.physical_priors import LINEAR
+    stated = cal.start.uncertainty
+    kinds = {'measured': [], 'estimated': [], 'guessed': []}
+    for name in cal.priors:
+        u = getattr(stated, name, None)
+        if u is None or name in LINEAR:
+            continue
+        kind = 'measured' if u <= MEASURED_U else 'guessed' if u >= GUESSED_U else 'estimated'
+        kinds[kind].append(f'{name} ({u:g})')
+    parts = [f'{k}: {", ".join(v)}' for k, v in kinds.items() if v]
+    return ['priors from the description (uncertainty.*; measured ones reveal an effect, '
+            'guessed ones absorb it): ' + '; '.join(parts)] if parts else []

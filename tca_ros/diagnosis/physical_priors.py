@@ -15,17 +15,8 @@ import math
 from tca_ros.model.heat_transfer import natural_convection_coefficient, radiation_coefficient
 from tca_ros.model.thermal import heat_capacity, surface_area
 
-#: prior standard deviation of ln(value) (linear: of the value, in its unit), by parameter
-PRIOR_SPREAD = {
-    'heat_capacity': math.log(1.3),  # mass from the geometry +-15 %, c_p of coated nylon +-15 %
-    'heat_loss': math.log(1.6),  # correlation scatter, orientation, coil shielding, emissivity
-    'actuation_gain': math.log(2.0),  # the paper's untwist law on another thread and twist
-    'stiffness_scale': math.log(1.5),  # moduli of the preset on another thread
-    'damping': math.log(10.0),  # not known: a coil in air is nearly undamped
-    'delivered_power_ratio': math.log(1.25),  # a supply's setting vs what heats the thread
-    'expansion_zero_temperature': 20.0,  # K, about the paper's 9.47 degC
-    'actuation_lag': 5.0,  # s, not known: nearly flat over what a bench can show
-}
+#: parameters whose uncertainty is in their unit (the rest relative: x/÷ (1 + u))
+LINEAR = ('expansion_zero_temperature', 'actuation_lag')
 #: the actuation lag's prior centre (s): about none (0 is its bound, where a fit could
 #: not start)
 ACTUATION_LAG_PRIOR = 0.5
@@ -42,7 +33,6 @@ PLAUSIBLE_RANGE = {
     'expansion_zero_temperature': (-60.0, None),  # degC: a nearly linear Gamma(T) below it
     'actuation_lag': (None, 60.0),  # s
 }
-LINEAR = ('expansion_zero_temperature', 'actuation_lag')  # spreads in the unit
 #: |z| beyond which a value has left what the description stated: a finding to explain
 SHIFT_Z = 2.0
 REFERENCE_RISE_K = 50.0  # K, surface temperature rise at which the loss is estimated
@@ -50,18 +40,28 @@ EMISSIVITY = 0.5  # -, between polished silver (0.05) and nylon (0.9): unknown
 
 
 def prior_spreads(params):
-    """Return {name: prior spread} for ``params`` (PRIOR_SPREAD; a description may tighten it).
+    """Return {name: prior spread} from ``params.uncertainty`` (the description's).
 
-    ``params.uncertainty`` (when the params schema has one) states how well the
-    maker knows each value; absent, the defaults above apply.
+    The params file states how well each value is known (section ``uncertainty``:
+    relative, the prior is x/÷ (1 + u), so the spread of ln(value) is ln(1 + u);
+    in K or s for the two LINEAR parameters). Its defaults (params_schema.py) are
+    what `tca_sim config new` writes: a thread's mass and c_p known to about 15 %
+    each (0.3), the heat loss from a still-air correlation (0.6), the paper's
+    untwist law on another thread (1), the preset's moduli (0.5), the damping and
+    the lag not known, the power per logged watt to 25 %.
     """
-    out = dict(PRIOR_SPREAD)
-    stated = getattr(params, 'uncertainty', None)
-    for name in out:
-        value = getattr(stated, name, None) if stated is not None else None
-        if value is not None and value > 0.0:
-            out[name] = value if name in LINEAR else math.log1p(value)
+    stated = params.uncertainty
+    out = {}
+    for name in fields_of(stated):
+        value = float(getattr(stated, name))
+        out[name] = value if name in LINEAR else math.log1p(value)
     return out
+
+
+def fields_of(stated):
+    """Return the field names of an UncertaintyParams."""
+    from dataclasses import fields
+    return [f.name for f in fields(stated)]
 
 
 def still_air_heat_loss(params):
@@ -139,6 +139,34 @@ def plausibility(parameters, values, params):
         rows.append(Plausibility(name, par.unit, float(value), par.prior, float(z),
                                  float(ref), how, low, high, bad))
     return rows
+
+
+#: catalogue effects (model/effects.py) a shift of each calibrated value can stand for
+STANDS_FOR = {
+    'delivered_power_ratio': ('power_loss',),
+    'heat_capacity': ('second_thermal_lag', 'dead_time'),
+    'stiffness_scale': ('modulus_softening', 'creep'),
+    'actuation_gain': ('power_loss', 'modulus_softening'),
+    'damping': ('second_thermal_lag', 'sensor_lag', 'friction', 'hysteresis'),
+    'actuation_lag': ('second_thermal_lag', 'sensor_lag', 'dead_time'),
+    'expansion_zero_temperature': ('modulus_softening', 'hysteresis'),
+}
+TAU_STEADY_Z = 1.0  # |z| of the time constant below which it counts as unchanged
+
+
+def stands_for(name, tau_z=None):
+    """Return the catalogue effects a shift of calibrated ``name`` can stand for.
+
+    The heat loss is read with the time constant: a steady rise that moved with tau
+    unchanged (|``tau_z``| < TAU_STEADY_Z prior spreads) is the power heating the
+    thread (power_loss); with tau it is the loss itself (radiation, nonlinear
+    convection, or another air flow: a condition, conditions.py).
+    """
+    if name == 'heat_loss':
+        if tau_z is not None and abs(tau_z) < TAU_STEADY_Z:
+            return ('power_loss',)
+        return ('radiation', 'nonlinear_convection')
+    return STANDS_FOR.get(name, ())
 
 
 def degenerate_combinations(estimates, parameters, correlation, names, threshold=0.9):

@@ -149,6 +149,24 @@ class RigParams:
 
 
 @dataclass(frozen=True)
+class UncertaintyParams:
+    """How well the description knows each calibrated quantity: the calibration's prior.
+
+    Relative uncertainties (-: the prior is x/÷ (1 + u)) except
+    ``expansion_zero_temperature`` (K) and ``actuation_lag`` (s).
+    """
+
+    heat_capacity: float = 0.3
+    heat_loss: float = 0.6
+    actuation_gain: float = 1.0
+    stiffness_scale: float = 0.5
+    damping: float = 9.0
+    delivered_power_ratio: float = 0.25
+    expansion_zero_temperature: float = 20.0
+    actuation_lag: float = 5.0
+
+
+@dataclass(frozen=True)
 class TcaParams:
     """All parameters of one TCA, SI units (temperatures in degC)."""
 
@@ -163,6 +181,7 @@ class TcaParams:
     effects: EffectParams = field(default_factory=EffectParams)
     source: str = ''
     rig: RigParams = field(default_factory=RigParams)
+    uncertainty: UncertaintyParams = field(default_factory=UncertaintyParams)
 
     def with_values(self, **dotted):
         """Return a copy with dotted-name overrides, e.g. ``{'dynamics.mass': 0.05}``."""
@@ -178,7 +197,8 @@ _DEG = {'bias_angle_deg', 'pitch_angle_deg', 'cone_angle_deg', 'min_pitch_angle_
 _FIELDS = {'coil.radius': 'coiled_radius', 'coil.pitch_angle_deg': 'coiled_pitch_angle'}
 _GROUPS = {'fiber': FiberParams, 'coil': CoilParams, 'thermal': ThermalParams,
            'moduli': ModuliParams, 'dynamics': DynamicsParams,
-           'electrical': ElectricalParams, 'effects': EffectParams, 'rig': RigParams}
+           'electrical': ElectricalParams, 'effects': EffectParams, 'rig': RigParams,
+           'uncertainty': UncertaintyParams}
 
 
 def _field_name(key):

@@ -181,6 +181,28 @@ SCHEMA = (
        1e-9, 1e3),
     _p('rig.joint_damping', 2e-4, 'N m s/rad', 'Antagonistic rig: viscous damping c of the joint.',
        0.0, 1e3),
+    # How well the description knows each calibrated quantity (docs/calibration.md): the
+    # prior of a calibration. Relative (x/÷ 1 + u) unless a unit is given; measured about
+    # 0.05, estimated 0.3, guessed 1. A calibrated value beyond 2 of these is a finding.
+    _p('uncertainty.heat_capacity', 0.3, '-',
+       'Relative uncertainty of m_t c_p (thread mass and c_p known to about 15 % each).',
+       1e-3, 100.0),
+    _p('uncertainty.heat_loss', 0.6, '-',
+       'Relative uncertainty of h c_s A_0 (a still-air correlation).', 1e-3, 100.0),
+    _p('uncertainty.actuation_gain', 1.0, '-',
+       "Relative uncertainty of the untwist gain (the paper's law on another thread).",
+       1e-3, 100.0),
+    _p('uncertainty.stiffness_scale', 0.5, '-',
+       "Relative uncertainty of the moduli E, G (the preset's).", 1e-3, 100.0),
+    _p('uncertainty.damping', 9.0, '-', 'Relative uncertainty of b_t (not known).',
+       1e-3, 1000.0),
+    _p('uncertainty.delivered_power_ratio', 0.25, '-',
+       'Relative uncertainty of the power heating the thread per logged watt.', 1e-3, 100.0),
+    _p('uncertainty.expansion_zero_temperature', 20.0, 'K',
+       'Uncertainty of T_z, where dGamma/dT of eq. (2) vanishes (the curvature).',
+       1e-3, 200.0),
+    _p('uncertainty.actuation_lag', 5.0, 's',
+       'Uncertainty of the lag of the actuating temperature.', 1e-3, 600.0),
 )
 
 SPECS = {s.name: s for s in SCHEMA}
