@@ -21,9 +21,10 @@ import time
 
 import numpy as np
 
-from tca_ros.diagnosis.calibration import calibrate, DEFAULT_FIT, full_nrmse
+from tca_ros.diagnosis.calibration import calibrate, DEFAULT_FIT
 from tca_ros.diagnosis.data import read_record
 from tca_ros.diagnosis.lumped import fit_lumped, lumped_nrmse
+from tca_ros.diagnosis.predictions import full_nrmse
 from tca_ros.diagnosis.validation import condition_of, repeat_floor
 from tca_ros.model.muscle import describe_muscle, MuscleSpec
 

@@ -159,7 +159,7 @@ def _unique_stems(paths):
 
 def simulate_record(params, record, physics_rate):
     """Return the SimulationResult of ``record``'s inputs (its mass, load, supply)."""
-    from tca_ros.diagnosis.calibration import record_params
+    from tca_ros.diagnosis.predictions import record_params
     from tca_ros.model.simulation import simulate
     supply = str(record.meta.get('supply', 'power')).strip()
     if supply not in SUPPLIES:
@@ -184,7 +184,7 @@ def record_errors(record, model):
     to single-sample spikes), ``nrmse`` = rmse / peak, and ``temperature`` (K) and
     ``resistance`` (ohm) RMSE when the record has the column (else None).
     """
-    from tca_ros.diagnosis.calibration import peak_stroke
+    from tca_ros.diagnosis.predictions import peak_stroke
 
     def rmse(measured, modelled):
         return None if measured is None else float(np.sqrt(np.mean((measured - modelled) ** 2)))

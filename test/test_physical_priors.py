@@ -11,9 +11,10 @@ import numpy as np
 import pytest
 
 from tca_ros.cli import main
-from tca_ros.diagnosis.calibration import calibrate, full_nrmse
+from tca_ros.diagnosis.calibration import calibrate
 from tca_ros.diagnosis.calibration_report import format_summary
 from tca_ros.diagnosis.physical_priors import physical_reference, PLAUSIBLE_RATIO
+from tca_ros.diagnosis.predictions import full_nrmse
 from tca_ros.diagnosis.realistic import bench_record
 from tca_ros.model.heat_transfer import natural_convection_coefficient
 from tca_ros.model.muscle import describe_muscle, MuscleSpec

@@ -161,7 +161,8 @@ def test_an_isotonic_calibration_predicts_the_force_of_an_isometric_rig(files, t
 def test_an_isometric_record_calibrates_the_same_params_and_predicts_a_load(tmp_path):
     # records of a clamped muscle alone (force, 1 g pretension) calibrate the muscle;
     # the calibrated file then predicts the same muscle with a hanging mass
-    from tca_ros.diagnosis.calibration import calibrate, full_nrmse
+    from tca_ros.diagnosis.calibration import calibrate
+    from tca_ros.diagnosis.predictions import full_nrmse
     from tca_ros.diagnosis.data import read_record
     from tca_ros.model.rig_simulation import simulate_rig
     start = describe_muscle(SPEC).params

@@ -53,21 +53,16 @@ from tca_ros.diagnosis import engine
 from tca_ros.diagnosis.calibration_parameters import apply_calibration, calibration_priors, \
     coil_stiffness, damping_bound, DEFAULT_FIT, EFFECT_PARAMETERS, effect_priors, \
     MAX_DAMPING_RATIO, OPTIONAL_FIT  # noqa: F401 (coil_stiffness, MAX_DAMPING_RATIO: API)
-from tca_ros.diagnosis.conditions import environment_of, environment_priors, \
-    environment_scales, held_strength, in_environment, is_isometric, measured, with_tension
+from tca_ros.diagnosis.conditions import environment_priors, environment_scales, \
+    held_strength, is_isometric, measured, with_tension
+from tca_ros.diagnosis.predictions import defect_corrections, full_predictions, \
+    normalised_rmse, peak_response, predictor, record_params
 from tca_ros.diagnosis.progress import Progress
 from tca_ros.model.kinetostatics import static_elongation
-from tca_ros.model.quasistatic import QuasiStaticPlant
-from tca_ros.model.quasistatic_isometric import isometric_force
-from tca_ros.model.resistance import resistance
-from tca_ros.model.rig_simulation import simulate_rig
-from tca_ros.model.simulation import simulate
 from tca_ros.model.static_maps import make_statics
 
-PEAK_PERCENTILE = 99.5  # % of a record's contraction taken as its peak (spike-robust)
 DISPLACEMENT_SCALE_FLOOR = 1e-6  # m, residual scale floor (a good encoder's resolution)
 FORCE_SCALE_FLOOR = 1e-5  # N, likewise (a load cell's resolution, 1 mg)
-MIN_PHYSICS_RATE_HZ = 200.0  # Hz, full-dynamics check
 NOMINAL_LEVELS = 2  # a power column with at most this many distinct values is nominal
 WARM_START_WINDOW_S = 1.0  # s of power off at the start needed to see a warm start
 WARM_START_SAMPLES = 8  # samples of power off at the start needed likewise
@@ -114,12 +109,6 @@ def starts_warm(record, ambient):
             and first - last > WARM_START_SIGMAS * np.sqrt(2.0) * sigma)
 
 
-def record_params(params, record):
-    """Return ``params`` with the record's hanging mass (kg) and initial load (N)."""
-    mass = float(record.meta.get('mass_kg', params.dynamics.mass))
-    return params.with_values(**{'dynamics.mass': mass, 'dynamics.load': float(record.load[0])})
-
-
 def match_loaded_length(params, length, load, model=None):
     """Return ``params`` with l_t scaled so the loaded length at ambient is ``length`` (m).
 
@@ -135,27 +124,6 @@ def match_loaded_length(params, length, load, model=None):
             break
         params = params.with_values(**{'fiber.length': params.fiber.length * length / current})
     return params
-
-
-def peak_stroke(record, mask=None):
-    """Return the record's peak contraction (m), robust to single-sample spikes.
-
-    ``mask``: the samples considered (boolean array; default all).
-    """
-    x = record.displacement if mask is None else record.displacement[mask]
-    return float(max(np.percentile(x, PEAK_PERCENTILE), 1e-6))
-
-
-def normalised_rmse(record, displacement):
-    """Return RMSE / peak measured stroke (-) of a predicted ``displacement`` (m)."""
-    return float(np.sqrt(np.mean((record.displacement - displacement) ** 2))) \
-        / peak_stroke(record)
-
-
-def peak_response(record, mask=None):
-    """Return the peak of what the record's rig measures (m, or N isometric), spike-robust."""
-    x = measured(record) if mask is None else measured(record)[mask]
-    return float(max(np.percentile(x, PEAK_PERCENTILE), 1e-6))
 
 
 @dataclass
@@ -285,91 +253,6 @@ def prepare_start(params, records, model=None):
         notes.append(f'electrical.resistance set to the measured {np.median(ohms):.4g} ohm '
                      '(header resistance_ohm)')
     return params, notes
-
-
-def predictor(start, model, channels, supply='power', corrections=None):
-    """Return the engine's ``predict(values, records)`` for the quasi-static TCA.
-
-    ``corrections``: per record {channel: array} added to the quasi-static
-    prediction (the defect correction towards the full dynamics).
-    """
-    def predict(values, records):
-        params = apply_calibration(start, values)
-        scales = environment_scales(values)
-        plants = {}
-        out = []
-        for r in records:
-            mass = float(r.meta.get('mass_kg', start.dynamics.mass))
-            key = (mass, environment_of(r))
-            plant = plants.get(key)
-            if plant is None:
-                plant = plants[key] = QuasiStaticPlant(in_environment(
-                    params.with_values(**{'dynamics.mass': mass}), r, scales), model=model)
-            if is_isometric(r):
-                out.append(isometric_prediction(plant, r, channels))
-                continue
-            sim = plant.simulate(r.time, r.power, r.load, supply=supply)
-            pred = {c: getattr(sim, c) for c in channels if c != 'force'}
-            if 'force' in channels:  # a hanging mass pulls its weight
-                pred['force'] = np.asarray(r.load, dtype=float)
-            out.append(pred)
-        if corrections is not None:
-            out = [{c: p[c] + d[c] for c in channels} for p, d in zip(out, corrections)]
-        return out
-    return predict
-
-
-def isometric_prediction(plant, record, channels):
-    """Return {channel: array} of a clamped muscle's quasi-static record (force in N)."""
-    force, temperature = isometric_force(plant, record.time, record.power,
-                                         float(record.load[0]))
-    zero = np.zeros_like(record.time)
-    out = {'displacement': zero, 'force': force, 'temperature': temperature}
-    if 'resistance' in channels:
-        p = plant.params
-        out['resistance'] = resistance(temperature, zero, plant.loaded_length(
-            float(record.load[0])), p.electrical, p.thermal.ambient_temperature)
-    return {c: out[c] for c in channels}
-
-
-def full_predictions(params, records, model, channels, supply='power', scales=None):
-    """Return per record {channel: array} of the full dynamics (18) with ``params``.
-
-    ``scales``: {environment: heat-loss scale} of the records' environments
-    (conditions.py; default: each record in still air).
-    """
-    out = []
-    for r in records:
-        rate = max(MIN_PHYSICS_RATE_HZ, r.sample_rate)
-        if is_isometric(r):
-            p = in_environment(params.with_values(**{
-                'rig.mode': 'isometric', 'rig.pretension': float(r.load[0])}), r, scales)
-            columns = simulate_rig(p, r.time, r.power, model=model, physics_rate=rate).columns
-            columns['displacement'] = np.zeros_like(r.time)
-            out.append({c: columns[c] for c in channels})
-            continue
-        sim = simulate(in_environment(record_params(params, r), r, scales), r.time, r.power,
-                       r.load, model=model, physics_rate=rate, supply=supply)
-        if 'force' in channels:
-            out.append({**{c: getattr(sim, c) for c in channels if c != 'force'},
-                        'force': np.asarray(r.load, dtype=float)})
-            continue
-        out.append({c: getattr(sim, c) for c in channels})
-    return out
-
-
-def defect_corrections(params, records, model, channels, supply='power', scales=None):
-    """Return per record {channel: full dynamics - quasi-static} at ``params``."""
-    full = full_predictions(params, records, model, channels, supply, scales)
-    fast = predictor(params, model, channels, supply)(
-        {f'heat_loss_scale.{k}': v for k, v in (scales or {}).items()}, records)
-    return [{c: f[c] - q[c] for c in channels} for f, q in zip(full, fast)]
-
-
-def full_nrmse(params, records, model, supply='power', scales=None):
-    """Return per-record RMSE / peak stroke (-) of the full dynamics (18) with ``params``."""
-    predictions = full_predictions(params, records, model, ['displacement'], supply, scales)
-    return [normalised_rmse(r, p['displacement']) for r, p in zip(records, predictions)]
 
 
 def default_fit(records, physics=True):

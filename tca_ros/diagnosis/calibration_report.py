@@ -7,7 +7,7 @@ import os
 
 import numpy as np
 
-from tca_ros.diagnosis.calibration import full_predictions
+from tca_ros.diagnosis.predictions import full_predictions
 
 COLUMNS = 4  # subplots per row
 FIGURE_DPI = 100

@@ -16,7 +16,7 @@ import math
 import numpy as np
 
 from tca_ros.diagnosis import engine
-from tca_ros.diagnosis.calibration import normalised_rmse, peak_stroke
+from tca_ros.diagnosis.predictions import normalised_rmse, peak_stroke
 from tca_ros.model.quasistatic_signals import delayed_input, first_order_response
 
 

@@ -131,7 +131,8 @@ def calibrate_training_part(records, params_of, model, fraction, supply, progres
     (fit, start_values, max_nfev) go to calibration.calibrate.
     """
     from tca_ros.diagnosis.holdout import make_holdout
-    from tca_ros.diagnosis.calibration import calibrate, CalibrationError, record_params
+    from tca_ros.diagnosis.calibration import calibrate, CalibrationError
+    from tca_ros.diagnosis.predictions import record_params
     from tca_ros.model.kinetostatic_models import make_kinetostatic_model
     from tca_ros.model.quasistatic import QuasiStaticUnsupported
     holdout = make_holdout(fraction, validation)

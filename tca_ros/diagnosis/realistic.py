@@ -15,10 +15,11 @@ import os
 
 import numpy as np
 
-from tca_ros.diagnosis.calibration import apply_calibration, record_params
+from tca_ros.diagnosis.calibration import apply_calibration
 from tca_ros.diagnosis.calibration_parameters import expansion_zero
 from tca_ros.diagnosis.data import Record, write_csv_record
 from tca_ros.diagnosis.generator import draw_effect_values, random_power_profile
+from tca_ros.diagnosis.predictions import record_params
 from tca_ros.model.effects import CATALOGUE, true_ambient
 from tca_ros.model.params import dump_params, GRAVITY, load_params
 from tca_ros.model.simulation import simulate

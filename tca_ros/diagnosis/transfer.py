@@ -12,10 +12,10 @@ import json
 
 import numpy as np
 
-from tca_ros.diagnosis.calibration import full_predictions, normalised_rmse, predictor
 from tca_ros.diagnosis.conditions import environment_of, measured, rig_of, SCALE_PREFIX, \
     STILL_AIR
 from tca_ros.diagnosis.lumped import fit_lumped, predict_lumped
+from tca_ros.diagnosis.predictions import full_predictions, normalised_rmse, predictor
 from tca_ros.diagnosis.validation import condition_of, repeat_floor
 
 HEADER_KEY = 'calibrated_on'  # params-file header line written by `tca_sim calibrate`

@@ -11,8 +11,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from tca_ros.diagnosis.calibration import calibrate, full_nrmse
+from tca_ros.diagnosis.calibration import calibrate
 from tca_ros.diagnosis.lumped import fit_lumped, lumped_nrmse
+from tca_ros.diagnosis.predictions import full_nrmse
 
 POWER_DIGITS = 2  # W, rounding of the power level that names a condition
 LOAD_DIGITS = 3  # N
