@@ -91,6 +91,7 @@ def cmd_simulate(args, out):
     held = {name: resample_hold(t_in, values, t) for name, values in columns.items()
             if name != 'time'}
     names = RIG_COLUMNS[p.rig.mode]
+    _warn_extrapolation(args.config, p, held)
     result, event = _run(p, t, held, args.physics_rate, names)
     check_finite({name: result[name] for name in names[1:]}, result['time'], 's')
     out.write(','.join(names) + '\n')
@@ -102,6 +103,21 @@ def cmd_simulate(args, out):
     line = ' '.join(event.split())
     sys.stderr.write(f'tca_sim simulate: error: {clip(line, MESSAGE_CHARS)}\n')
     return EXIT_EVENT
+
+
+def _warn_extrapolation(config, params, held):
+    """Warn (stderr, one line each) where a calibrated muscle is run past its calibration."""
+    from tca_ros.cli_common import checked_config
+    from tca_ros.diagnosis.transfer import profile_extrapolation, read_trained_range
+    trained = read_trained_range(checked_config(config))
+    if trained is None:
+        return
+    load = held.get('load')
+    for line in profile_extrapolation(
+            trained, float(np.max(held['power'])),
+            float(np.max(load)) if load is not None else params.dynamics.load,
+            params.rig.mode):
+        sys.stderr.write(f'tca_sim simulate: warning: extrapolates: {line}\n')
 
 
 def _run(p, t, held, physics_rate, names):

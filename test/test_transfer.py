@@ -187,3 +187,22 @@ def test_an_isometric_record_calibrates_the_same_params_and_predicts_a_load(tmp_
     assert cal.report.values['actuation_gain'] == pytest.approx(1.3, rel=0.15)
     hanging = bench_record(truth, 0.4, 0.02, rng, drift=0.0)
     assert full_nrmse(cal.params, [hanging], 'cst')[0] < 0.08  # 5.6 % when written
+
+
+def test_simulate_warns_when_a_calibrated_muscle_runs_past_its_calibration(files, tmp_path,
+                                                                            capsys):
+    root, config, paths = files
+    cal = str(root / 'cal_sim.yaml')
+    assert run(['calibrate', paths['a'], paths['b'], '--config', config, '--out', cal,
+                '--model', 'cst', '--quiet'])[0] == 0
+    profile = tmp_path / 'p.csv'
+    profile.write_text('time,power\n0,0\n2,0.9\n10,0\n12,0\n')
+    capsys.readouterr()
+    assert main(['simulate', '--config', cal, '--model', 'cst', '--input', str(profile),
+                 '--rate', '2'], out=io.StringIO()) == 0
+    err = capsys.readouterr().err
+    assert 'warning: extrapolates: power 0.9 W above the calibrated 0.45 W' in err, err
+    profile.write_text('time,power\n0,0\n2,0.4\n10,0\n12,0\n')
+    assert main(['simulate', '--config', cal, '--model', 'cst', '--input', str(profile),
+                 '--rate', '2'], out=io.StringIO()) == 0
+    assert 'extrapolates' not in capsys.readouterr().err

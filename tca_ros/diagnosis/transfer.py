@@ -90,21 +90,26 @@ def read_trained_range(path):
     return None
 
 
-def extrapolation(record, trained, peak_temperature):
-    """Return the warnings (strings) of a record outside ``trained``'s range."""
+def profile_extrapolation(trained, power, load, rig):
+    """Return the warnings (strings) of a run at peak ``power`` (W), ``load`` (N) on ``rig``."""
     out = []
-    power = float(np.max(record.power))
     if power > POWER_MARGIN * max(trained['power_w']):
         out.append(f'power {power:.3g} W above the calibrated {max(trained["power_w"]):.3g} W')
-    load = float(np.max(record.load))
     low, high = min(trained['load_n']), max(trained['load_n'])
-    if load > LOAD_MARGIN * high or load < low / LOAD_MARGIN:
+    if rig != 'isometric' and (load > LOAD_MARGIN * high or load < low / LOAD_MARGIN):
         out.append(f'load {load:.3g} N outside the calibrated {low:.3g}-{high:.3g} N')
+    if rig not in trained['rig']:
+        out.append(f'rig {rig} not calibrated ({", ".join(trained["rig"])})')
+    return out
+
+
+def extrapolation(record, trained, peak_temperature):
+    """Return the warnings (strings) of a record outside ``trained``'s range."""
+    out = profile_extrapolation(trained, float(np.max(record.power)),
+                                float(np.max(record.load)), rig_of(record))
     if environment_of(record) not in trained.get('environment', {STILL_AIR: 1.0}):
         out.append(f'environment {environment_of(record)} not calibrated (its heat loss is '
                    'taken as in still air)')
-    if rig_of(record) not in trained['rig']:
-        out.append(f'rig {rig_of(record)} not calibrated ({", ".join(trained["rig"])})')
     top = trained.get('peak_temperature_c')
     if top is not None and peak_temperature > top + TEMPERATURE_MARGIN_K:
         out.append(f'predicted {peak_temperature:.0f} degC above the calibrated '
