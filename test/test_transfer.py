@@ -189,8 +189,8 @@ def test_an_isometric_record_calibrates_the_same_params_and_predicts_a_load(tmp_
     assert full_nrmse(cal.params, [hanging], 'cst')[0] < 0.08  # 5.6 % when written
 
 
-def test_simulate_warns_when_a_calibrated_muscle_runs_past_its_calibration(files, tmp_path,
-                                                                            capsys):
+def test_simulate_warns_when_a_calibrated_muscle_runs_past_its_calibration(
+        files, tmp_path, capsys):
     root, config, paths = files
     cal = str(root / 'cal_sim.yaml')
     assert run(['calibrate', paths['a'], paths['b'], '--config', config, '--out', cal,
