@@ -161,3 +161,25 @@ def test_a_measured_description_reveals_a_power_loss_that_a_guessed_one_absorbs(
     text = format_summary(measured)
     assert 'measured: heat_capacity (0.03)' in text and 'finding:' in text
     assert 'guessed: heat_capacity (2)' in format_summary(guessed)
+
+
+def test_the_next_experiment_separates_rivals_the_records_confuse():
+    # a realistic muscle at one load: the records fix a combination of the stiffness and
+    # the curvature; two rivals along it fit the records alike, and the experiment the
+    # calibration proposes tells them apart by several noise units
+    from tca_ros.diagnosis.experiments import _rivals, next_experiments
+    from tca_ros.diagnosis.predictions import predictor
+    from tca_ros.diagnosis.realistic import realistic_set
+    s = realistic_set(3, drift=0.0)
+    cal = calibrate(s.records, s.start, model='cst', check=False)
+    found = next_experiments(cal)
+    assert found, cal.combinations()
+    for e in found:
+        first, second = (predictor(cal.start, 'cst', ['displacement'])(v, cal.records)
+                         for v in _rivals(cal, *e.pair))
+        seen = np.sqrt(np.mean(np.concatenate([(p['displacement'] - q['displacement']) ** 2
+                                               for p, q in zip(first, second)])))
+        assert seen == pytest.approx(e.on_records)
+        # the experiment tells the rivals apart several times better than the records do
+        assert e.separates and e.difference > 3.0 * seen, e
+    assert 'next experiment for the' in format_summary(cal)

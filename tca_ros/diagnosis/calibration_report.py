@@ -101,8 +101,11 @@ def format_plausibility(cal):
                      f'{1.0 / values["heat_loss"]:.3g} K/W, {hot:.0f} degC at the highest '
                      f'logged power {peak:.3g} W')
     for a, b, kind, spread in cal.combinations():
-        lines.append(f'the records fix the {kind} of {a} and {b} (to {spread:.0%}), not each: '
-                     'each is held near its prior')
+        to = f' (to {spread:.0%})' if spread == spread else ''
+        lines.append(f'the records fix the {kind} of {a} and {b}{to}, not each: their '
+                     'priors share the rest')
+    from tca_ros.diagnosis.experiments import format_experiments, next_experiments
+    lines += format_experiments(next_experiments(cal))
     for name, z, effects in cal.findings():
         lines.append(f'finding: {name} moved z = {z:+.1f} prior spreads from the description '
                      '(beyond its stated uncertainty): the muscle differs there, or '

@@ -173,9 +173,10 @@ def degenerate_combinations(estimates, parameters, correlation, names, threshold
     """Return [(a, b, kind, spread)]: pairs the records fix only in combination.
 
     Two parameters, at least one not determined by the records, whose posterior
-    correlation exceeds ``threshold`` in magnitude: the records fix their product
-    (kind 'product', correlation < 0) or ratio ('ratio', > 0) in log coordinates,
-    to the relative ``spread`` (-), and the priors share the rest between them.
+    correlation exceeds ``threshold`` in magnitude. For two log parameters the
+    records fix their product (kind 'product', correlation < 0) or ratio ('ratio',
+    > 0) to the relative ``spread`` (-); otherwise a linear combination in fit
+    coordinates ('combination', spread nan). The priors share the rest between them.
     """
     out = []
     if correlation is None:
@@ -187,9 +188,12 @@ def degenerate_combinations(estimates, parameters, correlation, names, threshold
             if ea is None or eb is None or (ea.determined and eb.determined):
                 continue
             rho = correlation[i, j]
-            if not abs(rho) >= threshold or not (parameters[a].log and parameters[b].log):
+            if not abs(rho) >= threshold:
                 continue
-            sa, sb = ea.stderr / ea.value, eb.stderr / eb.value
-            var = sa ** 2 + sb ** 2 - 2.0 * abs(rho) * sa * sb  # of ln a +- ln b
-            out.append((a, b, 'ratio' if rho > 0 else 'product', math.sqrt(max(var, 0.0))))
+            if parameters[a].log and parameters[b].log:
+                sa, sb = ea.stderr / ea.value, eb.stderr / eb.value
+                var = sa ** 2 + sb ** 2 - 2.0 * abs(rho) * sa * sb  # of ln a +- ln b
+                out.append((a, b, 'ratio' if rho > 0 else 'product', math.sqrt(max(var, 0.0))))
+            else:
+                out.append((a, b, 'combination', float('nan')))
     return out
