@@ -111,7 +111,8 @@ def _fit_space(name, dotted):
         fractions = ', '.join(number(100 * f) for f in cand.CONTACT_START_FRACTIONS)
         bounds = (f'nominal alpha_min to alpha* - {number(cand.CONTACT_MARGIN_DEG)} deg '
                   f'({CONTACT_CONFIG}: {span(low, high - cand.CONTACT_MARGIN_DEG, "deg")})')
-        return bounds, f'stop at {fractions} % of the nominal peak stroke, and at the measured peak'
+        return bounds, (f'stop at {fractions} % of the nominal peak stroke, '
+                        'and at the measured peak')
     space, starts = cand.effect_space(dotted)
     bounds = span(space.low, space.high, space.unit) + (' (log)' if space.log else '')
     return bounds, ', '.join(number(s) for s in starts)
