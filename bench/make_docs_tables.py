@@ -6,18 +6,27 @@ The tables are read from the catalogue of effects (tca_ros.model.effects.CATALOG
 the parameter schema (tca_ros.model.params_schema.SCHEMA: units, defaults, ranges),
 the diagnosis's search spaces (tca_ros.diagnosis.candidates), the synthetic
 generator's ranges (tca_ros.diagnosis.generator) and the joint stage's families
-(tca_ros.diagnosis.joint.FAMILIES). test/test_docs_tables.py fails when a doc's
-block differs from what this script writes.
+(tca_ros.diagnosis.joint.FAMILIES). The example blocks (EXAMPLES) are what
+`tca_sim diagnose` prints on the shipped example record; they take about a minute, so
+only ``--examples`` runs them, and their run time line is compared without its
+seconds. test/test_docs_tables.py fails when a doc's block differs from what this
+script writes.
 
-    python bench/make_docs_tables.py            # rewrite the blocks in place
-    python bench/make_docs_tables.py --check    # exit 1 naming each stale block
+    python bench/make_docs_tables.py                       # rewrite the tables in place
+    python bench/make_docs_tables.py --examples            # the examples too
+    python bench/make_docs_tables.py --check [--examples]  # exit 1 naming stale docs
 """
 import argparse
+import contextlib
+import io
 import math
+import os
 import pathlib
 import re
 import sys
+import tempfile
 
+from tca_ros.cli import main as tca_sim
 from tca_ros.diagnosis import candidates as cand
 from tca_ros.diagnosis import generator as gen
 from tca_ros.diagnosis.joint import FAMILIES
@@ -166,21 +175,81 @@ def recalibration_table():
     return '\n'.join(rows) + '\n'
 
 
+#: The shipped example record and the commands the docs show on it.
+EXAMPLE_RECORD = 'tca_ros/data/example_recording.csv'
+EXAMPLE_COMMAND = ['diagnose', EXAMPLE_RECORD, '--config', 'free_stroke',
+                   '--report', 'out/example']
+UNCALIBRATED_COMMAND = ['diagnose', EXAMPLE_RECORD, '--config', 'free_stroke', '--no-calibrate']
+RUN_TIME = re.compile(r'^(\d+ simulations), [0-9.]+ s$', re.M)
+
+
+def run_tca_sim(argv):
+    """Return what ``tca_sim ARGV`` prints on stdout, run in a scratch directory.
+
+    The scratch directory links ``tca_ros`` to this tree's, so relative paths in the
+    command and in its output read as they would from the repository root.
+    """
+    out = io.StringIO()
+    with tempfile.TemporaryDirectory() as scratch:
+        os.symlink(ROOT / 'tca_ros', pathlib.Path(scratch) / 'tca_ros')
+        cwd = os.getcwd()
+        os.chdir(scratch)
+        try:
+            with contextlib.redirect_stderr(io.StringIO()):
+                status = tca_sim(argv + ['--quiet'], out=out)
+        finally:
+            os.chdir(cwd)
+    if status != 0:
+        raise RuntimeError(f'tca_sim {" ".join(argv)} exited {status}')
+    return out.getvalue()
+
+
+def example_block():
+    """Return the fenced block of the example: the command and all it prints."""
+    text = run_tca_sim(EXAMPLE_COMMAND)
+    return '```text\n$ tca_sim ' + ' '.join(EXAMPLE_COMMAND) + '\n' + text + '```\n'
+
+
+def uncalibrated_block():
+    """Return the fenced block of the example without calibration: its search and result."""
+    lines = run_tca_sim(UNCALIBRATED_COMMAND).splitlines()
+    first = next(i for i, line in enumerate(lines) if line.startswith('candidates'))
+    last = next(i for i, line in enumerate(lines) if line.startswith('verdict:'))
+    kept = [line for line in lines[first + 1:last + 1]
+            if not re.match(r'\s+\d+\. ', line) and not line.startswith('  not testable')]
+    return ('```text\n$ tca_sim ' + ' '.join(UNCALIBRATED_COMMAND) + '\n...\n'
+            + '\n'.join(kept) + '\n```\n')
+
+
+def same_but_run_time(old, new):
+    """Return True when two example blocks differ at most in their run time (s)."""
+    return RUN_TIME.sub(r'\1', old) == RUN_TIME.sub(r'\1', new)
+
+
+EXAMPLES = {'example': example_block, 'example-uncalibrated': uncalibrated_block}
 TABLES = {'catalogue': catalogue_table, 'unsearched-effect-parameters': unsearched_table,
           'recalibration': recalibration_table}
 
 
-def render(text, path='doc'):
-    """Return ``text`` with every generated block replaced by its table.
+def render(text, path='doc', examples=False):
+    """Return ``text`` with every generated block replaced by what the code gives.
 
-    Raises KeyError naming ``path`` and the block for a block name TABLES lacks.
+    Example blocks are run only with ``examples`` (else left as they are) and kept
+    as they are when only their run time differs. Raises KeyError naming ``path``
+    and the block for a block name neither TABLES nor EXAMPLES has.
     """
     def replace(match):
-        name = match.group('name')
-        if name not in TABLES:
+        name, body = match.group('name'), match.group('body')
+        if name in EXAMPLES:
+            new = EXAMPLES[name]() if examples else body
+            if same_but_run_time(body, new):
+                new = body
+        elif name in TABLES:
+            new = TABLES[name]()
+        else:
             raise KeyError(f'{path}: unknown generated block {name!r} '
-                           f'(known: {", ".join(TABLES)})')
-        return match.group(1) + TABLES[name]() + match.group(4)
+                           f'(known: {", ".join(list(TABLES) + list(EXAMPLES))})')
+        return match.group(1) + new + match.group(4)
     return BLOCK.sub(replace, text)
 
 
@@ -194,12 +263,14 @@ def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument('--check', action='store_true',
                         help='change nothing; exit 1 when a block differs from the code')
+    parser.add_argument('--examples', action='store_true',
+                        help='run the example commands too (about a minute)')
     args = parser.parse_args(argv)
     stale = []
     for rel in DOCS:
         path = ROOT / rel
         text = path.read_text(encoding='utf-8')
-        new = render(text, rel)
+        new = render(text, rel, examples=args.examples)
         if new != text:
             stale.append(rel)
             if not args.check:

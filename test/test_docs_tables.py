@@ -65,3 +65,20 @@ def test_an_unknown_block_is_named():
 
 def test_check_mode_passes_on_the_committed_docs():
     assert TABLES.main(['--check']) == 0
+
+
+def test_the_example_blocks_show_what_tca_sim_diagnose_prints_today():
+    # runs the two example commands (about 25 s of CPU): the docs' example is the
+    # command's output verbatim but for its run time (s)
+    text = (ROOT / 'docs' / 'diagnosis.md').read_text(encoding='utf-8')
+    assert {'example', 'example-uncalibrated'} <= set(TABLES.blocks(text))
+    assert TABLES.render(text, 'docs/diagnosis.md', examples=True) == text, (
+        'docs/diagnosis.md: the example differs from what tca_sim diagnose prints; run '
+        '`python bench/make_docs_tables.py --examples` and commit the result')
+
+
+def test_only_the_run_time_of_an_example_may_differ():
+    old = 'effects found: none\n186 simulations, 20.3 s\n'
+    assert TABLES.same_but_run_time(old, old.replace('20.3 s', '37.9 s'))
+    assert not TABLES.same_but_run_time(old, old.replace('186', '187'))
+    assert not TABLES.same_but_run_time(old, old.replace('none', 'creep'))
