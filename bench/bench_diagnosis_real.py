@@ -20,7 +20,7 @@ Each out-of-catalogue case is diagnosed beside its defect-free twin (the same
 muscle, profile and noise): only where the twin is adequate can the verdict be
 the defect's. The same muscles are diagnosed again with two loads (15 and 40 g)
 together: a static sensor nonlinearity that one load hides in the calibration
-shows there (docs/diagnosis.md section 18).
+shows there (docs/diagnosis_method.md, "Several records of one muscle").
 With ``--real DIR`` the shared real records are diagnosed too: each described as the
 shared README's muscle with the mandrel diameter and the power group its file name gives
 ('0.8mm', '2W'; the source's loaded lengths for the 0.8 mm groups, 140 mm otherwise),
@@ -208,10 +208,10 @@ def cases(n_null, per_effect, n_pairs, n_outside, seed0, n_warm=len(WARM_CASES))
         seed += 1
     out = [(seed, hidden, (), None) for seed, hidden in out]
     # the same out-of-catalogue muscles with two loads diagnosed together: a defect
-    # that one load hides in the calibration shows there (docs section 18)
+    # that one load hides in the calibration shows there (docs/diagnosis_method.md)
     out += [(seed, hidden, TWO_LOADS, None)
             for seed, hidden, _, _ in out[len(out) - n_outside:]]
-    # records that begin warm (docs section 19): the calibration fits the start's
+    # records that begin warm (docs/diagnosis_method.md): the calibration fits the start's
     # excess where the logged temperature shows it
     for k, (hidden, logged) in enumerate(WARM_CASES[:n_warm]):
         out.append((seed + k, hidden, (), {**WARM, 'temperature': logged}))

@@ -47,7 +47,7 @@ def add_parser(subparsers):
                     help='held-out part: 3 of 10 blocks of each record, the last one and '
                          'two inside (a one-step record is judged on heating and '
                          'cooling), or its last 30 %%; auto: the tail when its training '
-                         'part holds two coolings, else blocks (docs/diagnosis.md)')
+                         'part holds two coolings, else blocks (docs/diagnosis_method.md)')
     sp.add_argument('--report', default=None,
                     help='directory (DIR) for report.md, PNG plots, diagnosis.json and '
                          'the extended params YAML')

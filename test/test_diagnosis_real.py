@@ -230,7 +230,7 @@ def test_an_extension_must_also_gain_held_out_rms_over_the_nominal(tmp_path, mon
 def test_a_hidden_friction_is_fitted_at_its_force_without_spoiling_the_temperature(tmp_path):
     # seed 9044 of bench_diagnosis_real: a cst plant, 20 Hz, temperature logged with 0.2 K
     # noise, 20 um AR(1) displacement noise, noisy power. Before the fit scales and the
-    # refitted damping (docs/diagnosis.md section 15) friction came out at 13.1 mN (truth
+    # refitted damping (docs/decisions.md G12, G13) friction came out at 13.1 mN (truth
     # 15.1 mN; 7.3 mN with the fit scales alone) and the extended model's held-out
     # temperature error at 1.43 K (nominal 0.24 K).
     from tca_ros.diagnosis.realistic import truth_path
@@ -250,7 +250,7 @@ def test_a_hidden_friction_is_fitted_at_its_force_without_spoiling_the_temperatu
 
 def test_a_second_thermal_lag_the_calibration_took_as_damping_is_fitted_at_its_time(tmp_path):
     # seed 1040 of bench_diagnosis.py: calibrate-first takes the 3.8 s lag up as a damping
-    # of 20.5 N s/m; before the hand-over (docs/diagnosis.md section 15) the refit raised
+    # of 20.5 N s/m; before the hand-over (docs/decisions.md G13, G14) the refit raised
     # that to 61.6 N s/m and the second lag was fitted at 0.39 s
     from tca_ros.diagnosis.generator import make_synthetic_record
     synth = make_synthetic_record(1040, effects=['second_thermal_lag'], n_effects=1,
@@ -292,7 +292,7 @@ def test_two_effects_no_single_one_explains_are_found_by_a_joint_pair(tmp_path, 
     # seed 9200 of the realistic generator with its plant on the rod model (the fits run
     # cst), 100 Hz, coloured noise and quantisation, a drawn muscle: an ambient offset of
     # 5.2 K and a second thermal lag of 1.33 s. Each effect calibrated jointly alone helps
-    # but leaves structure; the pair, calibrated jointly, explains it (docs section 17).
+    # but leaves structure; the pair, calibrated jointly, explains it (docs/diagnosis_method.md).
     # Without the pair stage the same record is not explained.
     from tca_ros.diagnosis import joint
     from tca_ros.diagnosis.realistic import truth_path
@@ -304,7 +304,7 @@ def test_two_effects_no_single_one_explains_are_found_by_a_joint_pair(tmp_path, 
     print(format_summary(result))
     assert result.verdict == 'explained', result.explanation
     assert sorted(result.effects) == sorted(hidden)
-    assert any('section 17' in n for n in result.notes), result.notes
+    assert any('"Joint calibration": pairs' in n for n in result.notes), result.notes
     values = result.extended_values
     assert values['effects.ambient_offset'] == pytest.approx(truth.ambient_offset, rel=0.25)
     assert values['effects.second_thermal_lag'] == pytest.approx(truth.second_thermal_lag,
@@ -318,7 +318,7 @@ def test_a_sensor_nonlinearity_one_load_hides_is_exposed_by_two_loads_together(t
     # seed 9059 of the realistic generator (rod plant, the fits run cst, 20 Hz, noisy
     # power, a warm start): the displacement is read through x + 8 x^2, 0.8 mm extra at
     # 10 mm. On one load, the calibration absorbs it (the stroke is a static function of
-    # the temperature and the steady rise and gain rescale it: docs section 18). Two
+    # the temperature and the steady rise and gain rescale it: docs/diagnosis_method.md). Two
     # loads of the same muscle diagnosed together cannot share one such rescaling: the
     # structure stays and nothing is named. The same two records without the defect
     # are adequate, so the verdict comes from the defect.

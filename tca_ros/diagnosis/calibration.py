@@ -29,7 +29,7 @@ initial_temperature_rise    K       thermal.initial_temperature_rise: the record
 effects.<name>              schema  a catalogue effect's parameter (model/effects.py),
                                     when named in ``fit``: the nominal model and one
                                     effect calibrated together (the diagnosis's joint
-                                    calibration, docs/diagnosis.md section 16)
+                                    calibration, docs/diagnosis_method.md)
 =========================== ======= ==================================================
 
 Every parameter has a prior centred on the description with a physical spread
@@ -91,7 +91,7 @@ def starts_warm(record, ambient):
     that span is above ``ambient`` (degC) and its median temperature exceeds the last
     quarter's by WARM_START_SIGMAS standard errors and WARM_START_MIN_FALL_K. Without
     a temperature channel the start is taken at rest: a creeping coil stretches there
-    as a cooling one does (docs/diagnosis.md section 19).
+    as a cooling one does (docs/diagnosis_method.md, "Records that begin warm").
     """
     from tca_ros.diagnosis.residuals import noise_sigma
     if record.temperature is None:

@@ -84,7 +84,7 @@ def effect_space(name):
 #: Nominal parameters a recalibration may move while an effect is fitted: name ->
 #: (factor below, factor above) the calibrated value. Actuation gain (stroke per
 #: kelvin), delivered power (steady rise), specific heat (time constant) and damping
-#: (a lag the calibration may have given it; docs/diagnosis.md section 15).
+#: (a lag the calibration may have given it; docs/diagnosis_method.md, "Calibrate first").
 RECALIBRATION = {'fiber.untwist_gain': (0.6, 1.6), 'thermal.delivered_power_ratio': (0.7, 1.4),
                  'fiber.specific_heat': (0.6, 1.6), 'dynamics.damping': (0.05, 1.0)}
 #: Effects that are one of the RECALIBRATION parameters under another name: a power

@@ -333,8 +333,8 @@ def write_csv_record(record, path, comments=()):
             columns.append(name)
             arrays.append(value)
     # displacement to 10 significant digits: '%.4e' rounded a 50 mm stroke to 0.5 um,
-    # coarser than a laser sensor resolves (docs/diagnosis.md section 13: a change of
-    # that size moved a real record's calibration)
+    # coarser than a laser sensor resolves (docs/decisions.md G30: a change of that
+    # size moved a real record's calibration)
     formats = {'time': '%.4f', 'power': '%.5f', 'load': '%.5f', 'displacement': '%.9e',
                'temperature': '%.3f', 'resistance': '%.4f', 'force': '%.6f'}
     with open(path, 'w', encoding='utf-8') as fh:

@@ -1,7 +1,7 @@
 """Fit candidate extensions to a record: one bounded fit, its uncertainties, its score.
 
-Method (docs/diagnosis.md)
---------------------------
+Method (docs/diagnosis_method.md)
+---------------------------------
 1. The record is split into training and held-out parts (holdout.py: blocks spread
    over the record by default, or a tail). Both run in one simulation from the
    inputs, so a held-out part starts from the state the simulation carries into it.
@@ -75,7 +75,7 @@ class FitProblem(GridSimulations):
             self.sigma['temperature'] = noise_sigma(record.temperature, max(
                 TEMPERATURE_NOISE_FLOOR, quantisation_sigma(record.temperature)))
         # the fits' residual scale of each channel: the white noise until
-        # scale_channels_by sets it from a model's residual (docs/diagnosis.md §15)
+        # scale_channels_by sets it from a model's residual (docs/decisions.md G12)
         self.fit_scale = dict(self.sigma)
         self.measured = {c: getattr(record, c) for c in self.channels}
         self.coarse_measured = {c: self.measured[c][self.index] for c in self.channels}
@@ -111,7 +111,7 @@ class FitProblem(GridSimulations):
         white noise as scale, a displacement whose noise is coloured (sigma from
         second differences sees only its white part) outweighs the temperature by
         orders of magnitude, and a fit trades kelvins of temperature error for
-        micrometres of displacement (docs/diagnosis.md §15). The calibration engine
+        micrometres of displacement (docs/decisions.md G12). The calibration engine
         scales its channels the same way (engine.py).
         """
         prediction = self.simulate_coarse(values, self.split)

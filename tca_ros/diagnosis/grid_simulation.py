@@ -6,7 +6,8 @@ reduction where it applies (model/quasistatic.py, about 100x cheaper) or by the
 dynamics (18) at the coarse rate. The discretisation error of the coarse grid is
 removed by defect correction: the difference between the current base model
 simulated at the record rate and on the coarse grid is added to every coarse
-simulation, so candidates are compared at record-rate accuracy (docs/diagnosis.md).
+simulation, so candidates are compared at record-rate accuracy
+(docs/diagnosis_method.md, "Fast fits").
 """
 import math
 

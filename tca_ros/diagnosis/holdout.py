@@ -1,6 +1,6 @@
 """Which parts of a record train a fit and which are held out to judge it.
 
-Two layouts (docs/diagnosis.md, "Held-out blocks"):
+Two layouts (docs/diagnosis_method.md, "Held-out part"):
 
 - ``'blocks'`` (the default): the record is cut into N_BLOCKS blocks of equal
   duration; the last one is held out (a prediction beyond the training data, as

@@ -15,9 +15,10 @@ training part. A candidate is taken only when its joint calibration passes the
 search's acceptance against the calibrated nominal model (the penalised held-out
 gain under the verdict's noise model, at least MIN_GAIN_PERCENT), leaves no
 structure by the verdict's test and has no parameter at the end of its range:
-a cleaner explanation than the search's, or none (docs/diagnosis.md section 16).
+a cleaner explanation than the search's, or none (docs/diagnosis_method.md,
+"Joint calibration").
 When none is taken, the single fits that helped are calibrated again each with a
-partner (pair_order), under the same rules (section 17).
+partner (pair_order), under the same rules (the same section, "Pairs").
 """
 from dataclasses import dataclass
 import math
@@ -278,8 +279,8 @@ def joint_notes(joint, rivals, searched):
     pair = len(joint.effects) > 1
     notes = [f'the search left structure{left}; {joint.name}, calibrated jointly with all '
              'the nominal parameters on the training part, '
-             f'{"explain" if pair else "explains"} it (docs/diagnosis.md section '
-             f'{17 if pair else 16})']
+             f'{"explain" if pair else "explains"} it (docs/diagnosis_method.md, '
+             f'"Joint calibration": {"pairs" if pair else "singles"})']
     if rivals:
         notes.append('also explained, calibrated jointly: ' + ', '.join(
             f'{f.name} (penalised held-out gain {f.criterion:.1f} against '

@@ -141,8 +141,8 @@ def _lag_exchange(problem, values):
 
     Calibrate-first fits the damping on the training part, and a lag that is not
     viscous (a second thermal time constant, a dead time, a sensor lag) is taken
-    up as damping b_t, b_t / k being a lag of seconds (docs/diagnosis.md section
-    15). Screened on that base, a lag effect only adds to a lag already there and
+    up as damping b_t, b_t / k being a lag of seconds (docs/diagnosis_method.md,
+    "Candidates"). Screened on that base, a lag effect only adds to a lag already there and
     its fit stays in that basin. So lag effects are also screened with the damping
     at EXCHANGE_FACTOR of the base's (the base start) and with the lag that takes
     away, (1 - EXCHANGE_FACTOR) b_t / k in s, as a further start of the effect.
@@ -176,8 +176,8 @@ def _structure_left(problem, values, score=None):
     beyond the noise model) finds no channel structured at the record rate: then
     a further effect could only fit coloured noise, drift or the power log's
     errors, and the verdict would call the model explained as it stands
-    (docs/diagnosis.md section 15). ``score``: the held-out RMS (noise sigmas)
-    when the caller has it.
+    (docs/diagnosis_method.md, "Acceptance and the search"). ``score``: the
+    held-out RMS (noise sigmas) when the caller has it.
     """
     if score is None:
         cost, _, n, _ = problem.heldout(values)

@@ -2,7 +2,7 @@
 
 A channel is structured when the inputs still predict its held-out residual
 (noise.structure_test, pooled over the records of a set); the verdict follows
-(docs/diagnosis.md, sections 2.9 and 11). A candidate is accepted by its
+(docs/diagnosis_method.md, "Noise and the structure test"). A candidate is accepted by its
 held-out gain under the same noise model (noise_model_gain).
 """
 import math
@@ -85,7 +85,7 @@ ONE_LOAD_SPREAD = 0.05
 ONE_LOAD_NOTE = ('every record holds one load: a static distortion of the displacement '
                  'reading (a sensor nonlinearity, a lever) cannot be told from the calibrated '
                  'stroke-temperature relation on one load; diagnose records at two or more '
-                 'loads together to test for it (docs/diagnosis.md section 18)')
+                 'loads together to test for it (docs/diagnosis_method.md)')
 
 
 def holds_one_load(records):
