@@ -78,6 +78,9 @@ def cmd_calibrate(args, out):
         raise InputError(f'--out = {args.out!r}: exists (pass --force to overwrite)')
     if args.report and os.path.exists(args.report) and not os.path.isdir(args.report):
         raise InputError(f'--report = {args.report!r}: exists and is not a directory')
+    folder = os.path.dirname(args.out)
+    if folder and os.path.exists(folder) and not os.path.isdir(folder):
+        raise InputError(f'--out = {args.out!r}: {folder!r} is not a directory')
     records = [read_record(path) for path in args.records]
     config = args.config or record_config(records[0])
     params = load_params(checked_config(config))
@@ -97,6 +100,8 @@ def cmd_calibrate(args, out):
     from tca_ros.diagnosis.transfer import header_line, trained_range
     header.append(header_line(trained_range(cal)))
     muscle, start_note = muscle_at_rest(cal.params)
+    if folder:
+        os.makedirs(folder, exist_ok=True)
     dump_params(muscle, args.out, header='\n'.join(header) + start_note)
     out.write(f'wrote {args.out}\n')
     loco = None

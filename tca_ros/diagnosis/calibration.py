@@ -52,7 +52,7 @@ import numpy as np
 from tca_ros.diagnosis import engine
 from tca_ros.diagnosis.calibration_parameters import apply_calibration, calibration_priors, \
     coil_stiffness, damping_bound, DEFAULT_FIT, EFFECT_PARAMETERS, effect_priors, \
-    MAX_DAMPING_RATIO, OPTIONAL_FIT  # noqa: F401 (coil_stiffness, MAX_DAMPING_RATIO: API)
+    MAX_DAMPING_RATIO, OPTIONAL_FIT, PHYSICS_FIT  # noqa: F401 (API)
 from tca_ros.diagnosis.conditions import environment_priors, environment_scales, \
     held_strength, is_isometric, measured, with_tension
 from tca_ros.diagnosis.predictions import defect_corrections, full_predictions, \
@@ -68,6 +68,8 @@ WARM_START_WINDOW_S = 1.0  # s of power off at the start needed to see a warm st
 WARM_START_SAMPLES = 8  # samples of power off at the start needed likewise
 WARM_START_SIGMAS = 4.0  # the fall over them that is no noise, in its standard errors
 WARM_START_MIN_FALL_K = 0.3  # K, and at least this fall (a thermocouple's resolution)
+BASE_NFEV = 40  # solver evaluations of a calibration by default
+PHYSICS_NFEV = 15  # more per added physics parameter (PHYSICS_FIT)
 MIN_CURVATURE_LEVELS = 2  # power levels needed to fit the characteristic's curvature
 POWER_OFF_SHARE = 0.05  # a logged power below this share of its peak is taken as off
 
@@ -273,7 +275,7 @@ def default_fit(records, physics=True):
     return names
 
 
-def calibrate(records, params, model=None, fit=None, progress=False, max_nfev=40,
+def calibrate(records, params, model=None, fit=None, progress=False, max_nfev=None,
               check=True, supply='power', masks=None, start_values=None, like=None,
               physics=True):
     """Calibrate ``params`` (start TcaParams) jointly on ``records``; return a Calibration.
@@ -356,6 +358,8 @@ def calibrate(records, params, model=None, fit=None, progress=False, max_nfev=40
     initial = {'displacement': 0.05 * median_peak, 'temperature': 2.0,
                'force': 0.05 * medians.get(True, 0.01),
                'resistance': 0.01 * r0}
+    if max_nfev is None:  # the added physics couples to the rest: more iterations
+        max_nfev = BASE_NFEV + PHYSICS_NFEV * sum(p.name in PHYSICS_FIT for p in parameters)
     options = dict(initial_scale=initial, max_nfev=max_nfev, progress=bar,
                    scale_floor={'displacement': DISPLACEMENT_SCALE_FLOOR,
                                 'force': FORCE_SCALE_FLOOR})
