@@ -30,6 +30,19 @@ def rig_of(record):
     return str(record.meta.get('rig', 'dead_weight')).strip()
 
 
+def spring_stiffness_of(record):
+    """Return k_s (N/m) of a spring-rig record (header ``spring_stiffness_n_per_m``)."""
+    value = record.meta.get('spring_stiffness_n_per_m')
+    try:
+        stiffness = float(value)
+    except (TypeError, ValueError):
+        stiffness = float('nan')
+    if not stiffness > 0.0 or stiffness == float('inf'):
+        raise ValueError(f"{record.source or 'a record'}: header 'spring_stiffness_n_per_m' = "
+                         f'{value!r}: a spring rig needs its stiffness, a finite value > 0 N/m')
+    return stiffness
+
+
 def is_isometric(record):
     """Return True for a record of a clamped muscle (``# rig: isometric``)."""
     return rig_of(record) == 'isometric'

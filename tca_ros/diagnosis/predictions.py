@@ -11,9 +11,9 @@ import numpy as np
 
 from tca_ros.diagnosis.calibration_parameters import apply_calibration
 from tca_ros.diagnosis.conditions import environment_of, environment_scales, in_environment, \
-    is_isometric, measured
+    is_isometric, measured, rig_of, spring_stiffness_of
 from tca_ros.model.quasistatic import QuasiStaticPlant
-from tca_ros.model.quasistatic_isometric import isometric_force
+from tca_ros.model.quasistatic_isometric import isometric_force, spring_equilibrium
 from tca_ros.model.resistance import resistance
 from tca_ros.model.rig_simulation import simulate_rig
 from tca_ros.model.simulation import simulate
@@ -70,6 +70,9 @@ def predictor(start, model, channels, supply='power', corrections=None):
             if is_isometric(r):
                 out.append(isometric_prediction(plant, r, channels))
                 continue
+            if rig_of(r) == 'spring':
+                out.append(spring_prediction(plant, r, channels))
+                continue
             sim = plant.simulate(r.time, r.power, r.load, supply=supply)
             pred = {c: getattr(sim, c) for c in channels if c != 'force'}
             if 'force' in channels:  # a hanging mass pulls its weight
@@ -94,6 +97,19 @@ def isometric_prediction(plant, record, channels):
     return {c: out[c] for c in channels}
 
 
+def spring_prediction(plant, record, channels):
+    """Return {channel: array} of a muscle on a series spring, quasi-static (m, N)."""
+    x, force, temperature = spring_equilibrium(plant, record.time, record.power,
+                                               float(record.load[0]),
+                                               spring_stiffness_of(record))
+    out = {'displacement': x, 'force': force, 'temperature': temperature}
+    if 'resistance' in channels:
+        p = plant.params
+        out['resistance'] = resistance(temperature, x, plant.loaded_length(
+            float(record.load[0])), p.electrical, p.thermal.ambient_temperature)
+    return {c: out[c] for c in channels}
+
+
 def full_predictions(params, records, model, channels, supply='power', scales=None):
     """Return per record {channel: array} of the full dynamics (18) with ``params``.
 
@@ -108,6 +124,14 @@ def full_predictions(params, records, model, channels, supply='power', scales=No
                 'rig.mode': 'isometric', 'rig.pretension': float(r.load[0])}), r, scales)
             columns = simulate_rig(p, r.time, r.power, model=model, physics_rate=rate).columns
             columns['displacement'] = np.zeros_like(r.time)
+            out.append({c: columns[c] for c in channels})
+            continue
+        if rig_of(r) == 'spring':
+            p = in_environment(params.with_values(**{
+                'rig.mode': 'spring', 'rig.pretension': float(r.load[0]),
+                'rig.spring_stiffness': spring_stiffness_of(r)}), r, scales)
+            columns = simulate_rig(p, r.time, r.power, r.load, model=model,
+                                   physics_rate=rate).columns
             out.append({c: columns[c] for c in channels})
             continue
         sim = simulate(in_environment(record_params(params, r), r, scales), r.time, r.power,
