@@ -4,8 +4,10 @@
 2. Fastest real-time factor with publish_clock (real_time_factor 0): the node alone (its
    own shutdown line), with a client reading /clock, and in lockstep with tca_pid.
 3. Command-to-feedback latency: power_cmd published -> the applied ``power`` received.
+4. Longest gap between outputs under a 2 W step, per shipped config, with an empty table
+   cache (the conical rod table's rows are then built while the node runs).
 
-Usage: python bench/bench_node.py [--model rod|cst|love] [--seconds 10]
+Usage: python bench/bench_node.py [--model rod|cst|love] [--seconds 10] [--only-gaps]
 """
 import argparse
 import math
@@ -30,6 +32,9 @@ from test_node_harness import (  # noqa: E402, I100
     CONFIG, module_command, NodeProcess, Probe)
 
 TICKS_PER_SECOND = os.sysconf('SC_CLK_TCK')  # /proc/<pid>/stat time unit
+CONFIGS = ('free_stroke', 'self_coiled', 'conical')  # the shipped config/*.yaml
+STEP_POWER = 2.0  # W, the step of the output-gap figure
+COMMAND_PERIOD = 0.1  # s between its power commands (10 Hz, as a slow controller)
 
 
 def _cpu_seconds(pid):
@@ -37,12 +42,45 @@ def _cpu_seconds(pid):
     return (int(fields[11]) + int(fields[12])) / TICKS_PER_SECOND  # utime + stime
 
 
-def _start(log_dir, model, *args, name='tca'):
+def _start(log_dir, model, *args, name='tca', config=CONFIG, env=None):
+    model_args = ['-p', f'model:={model}'] if model else []
     node = NodeProcess(module_command('tca_ros.node', [
-        '--params-file', CONFIG, '-p', f'model:={model}', *args]),
-        pathlib.Path(log_dir) / f'{name}.log')
-    node.wait_for_log('tca node ready', timeout=120.0)
+        '--params-file', config, *model_args, *args]),
+        pathlib.Path(log_dir) / f'{name}.log', env=env)
+    node.wait_for_log('tca node ready', timeout=300.0)
     return node
+
+
+def bench_gap(log_dir, config, seconds, cache):
+    """Return (longest gap (s), ready time (s), watchdog lines) of one config's outputs.
+
+    The node starts with its config's model and the table cache ``cache`` (a directory);
+    a probe sends STEP_POWER at 10 Hz for ``seconds`` and records when each
+    ``displacement`` arrives. The node's publish period is 10 ms (publish_rate 100 Hz).
+    """
+    env = dict(os.environ, TCA_ROS_CACHE=str(cache))
+    start = time.monotonic()
+    node = _start(log_dir, None, name=f'gap_{config}', env=env,
+                  config=HERE.parent / 'config' / f'{config}.yaml')
+    ready = time.monotonic() - start
+    probe = Probe()
+    rows = probe.record('displacement', Float64)
+    try:
+        probe.spin_until(lambda: rows, 20.0)
+        t0 = time.monotonic()
+        next_command = t0
+        while time.monotonic() - t0 < seconds:
+            if time.monotonic() >= next_command:
+                probe.publish('power_cmd', Float64(data=STEP_POWER))
+                next_command += COMMAND_PERIOD
+            probe.spin_for(0.005)
+        times = [t for t, _ in rows if t >= t0]
+        gap = max(b - a for a, b in zip(times, times[1:]))
+        watchdog = node.log().count('watchdog')
+    finally:
+        probe.close()
+        node.stop()
+    return gap, ready, watchdog
 
 
 def bench_cpu(log_dir, model, seconds):
@@ -133,7 +171,12 @@ def main():
     parser.add_argument('--model', default='rod', help='kinetostatic model (rod|cst|love)')
     parser.add_argument('--seconds', type=float, default=10.0, help='wall time per figure, s')
     parser.add_argument('--only-fastest', action='store_true', help='skip CPU and latency')
+    parser.add_argument('--only-gaps', action='store_true',
+                        help='only the longest output gap per config')
     args = parser.parse_args()
+    if args.only_gaps:
+        print_gaps(args.seconds)
+        return 0
     if args.only_fastest:
         with tempfile.TemporaryDirectory() as log_dir:
             alone = bench_fastest(log_dir, args.model, args.seconds, reader=False)
@@ -163,7 +206,30 @@ def main():
         print(f'{"power_cmd -> power latency, 95th percentile (ms)":58s} '
               f'{1e3 * lat[int(0.95 * (len(lat) - 1))]:10.2f}')
         print(f'{"power_cmd -> power latency, max (ms)":58s} {1e3 * lat[-1]:10.2f}')
+    print_gaps(args.seconds)
     return 0
+
+
+def print_gaps(seconds):
+    """Print the longest output gap under a 2 W step for each shipped config.
+
+    Each config first with an empty table cache (the conical rows are then built while
+    the node runs), then the conical one again with the rows its first run cached.
+    """
+    load1, _, _ = os.getloadavg()
+    print(f'longest gap between displacement messages, {STEP_POWER:g} W step, commands at '
+          f'10 Hz for {seconds:g} s (publish period 10 ms, target < 3 periods; load average '
+          f'{load1:.1f} on {os.cpu_count()} cores)')
+    print(f'{"config":28s} {"ready (s)":>10s} {"gap (ms)":>10s} {"periods":>8s} '
+          f'{"watchdog lines":>15s}')
+    with tempfile.TemporaryDirectory() as log_dir:
+        runs = [(config, 'empty cache', config) for config in CONFIGS]
+        runs.append(('conical', 'rows cached', 'conical'))
+        for config, cache_state, cache in runs:
+            gap, ready, watchdog = bench_gap(log_dir, config, seconds,
+                                             pathlib.Path(log_dir) / f'cache_{cache}')
+            print(f'{config + ", " + cache_state:28s} {ready:10.1f} {1e3 * gap:10.1f} '
+                  f'{gap / 0.01:8.1f} {watchdog:15d}')
 
 
 if __name__ == '__main__':

@@ -21,6 +21,7 @@ from rclpy.node import Node
 from rclpy.qos import QoSProfile
 from rosgraph_msgs.msg import Clock as ClockMsg
 
+from tca_ros.model.limits import ThreadBreakError
 from tca_ros.model.params import ParameterError
 from tca_ros.model.resistance import power_from_voltage
 from tca_ros.model.rigs import start_load
@@ -38,6 +39,7 @@ from tca_ros.node_params import (  # noqa: F401  (re-exported: the node's parame
 from tca_ros.node_reconfigure import ParametersMixin
 from tca_ros.node_rigs import RigTopics
 from tca_ros.node_spin import spin_resiliently
+from tca_ros.node_tables import muscle_temperatures, table_rows
 from tca_ros.node_task import TaskPlayer
 
 
@@ -69,6 +71,9 @@ class TcaSimNode(ClockMixin, InputsMixin, OutputsMixin, ParametersMixin, Node):
         self._power = 0.0  # W, applied in the last physics step
         self._broken = False
         self._failure = None  # why the physics stopped (None while it runs)
+        self._broken_cause = ''  # the physical event that broke the muscle
+        self._halted = False  # the thread broke: no physics until ~/reset
+        self._table_wait = None  # degC of a table row the physics waits for
         self._overheated = False
         self._frozen = None  # (displacement, velocity) when the muscle broke
         self._last_good = (0.0, 0.0, self._sim.state.temperature)  # displ., rate, temp.
@@ -104,12 +109,20 @@ class TcaSimNode(ClockMixin, InputsMixin, OutputsMixin, ParametersMixin, Node):
             self._reset_sim()
         except (ValueError, ArithmeticError) as exc:  # one line at start-up, no traceback
             raise ParameterError(str(exc).splitlines()[0]) from None
+        self._rows = table_rows(self._params)
+        self._rows.start(muscle_temperatures(self._sim))
         self._warm_up_shape()
         self.get_logger().info(
             f'tca node ready: model {self._params.model}, physics {self._cfg["physics_rate"]:g} '
-            f'Hz, publish {self._cfg["publish_rate"]:g} Hz, '
-            + (f'own clock x{self._cfg["real_time_factor"]:g}' if self._owns_time
-               else 'node clock'))
+            f'Hz, publish {self._cfg["publish_rate"]:g} Hz, {self._clock_name()}')
+
+    def _clock_name(self):
+        """Return which clock the node runs on, for the ready line."""
+        if self._owns_time:
+            return f'own clock x{self._cfg["real_time_factor"]:g} (publishes /clock)'
+        if self.get_parameter('use_sim_time').value:
+            return 'sim clock (use_sim_time: /clock)'
+        return 'node clock (system time)'
 
     # -- physics ----------------------------------------------------------------------
     def _command_power(self, now_ns):
@@ -154,12 +167,15 @@ class TcaSimNode(ClockMixin, InputsMixin, OutputsMixin, ParametersMixin, Node):
         now = self._now_ns()
         self._rig.drive(self._sim, now, self._broken)
         for i in range(n_steps):
-            if self._failure is not None:
+            if self._failure is not None or self._halted:
                 return
             if i == 0 or self._drive[0] == 'voltage':  # V^2 / R follows R(T, x)
                 self._power = self._command_power(now)
             try:
                 state = self._sim.step(self._power, self._load)
+            except ThreadBreakError as exc:  # a physical event, not a failure of the physics
+                self._break_thread(str(exc))
+                return
             except Exception as exc:  # noqa: B902  ZeroDivision, Overflow, StabilityError...
                 self._fail(f'{type(exc).__name__}: {exc}')
                 return
@@ -180,7 +196,32 @@ class TcaSimNode(ClockMixin, InputsMixin, OutputsMixin, ParametersMixin, Node):
                     f'temperature {temp:.1f} degC above melt_temperature '
                     f'{self._cfg["melt_temperature"]:g} degC: the muscle broke '
                     '(tension 0, resistance inf) until ~/reset')
-                self._break(self._frozen_values(state))
+                self._break(self._frozen_values(state),
+                            f'above melt_temperature {self._cfg["melt_temperature"]:g} degC')
+
+    def _physics_waits(self):
+        """Return True while a table row the next steps read is being built (physics holds).
+
+        Outputs and services go on meanwhile (tca_ros.node_tables).
+        """
+        if self._failure is not None or self._halted:
+            return False
+        waiting = self._rows.missing(muscle_temperatures(self._sim))
+        if waiting is not None and self._table_wait is None:
+            self.get_logger().info(
+                f'physics waits for the rod table row at {waiting:g} degC (built off the '
+                'executor, 1-2 s a row; cached for the next start)',
+                throttle_duration_sec=WARN_PERIOD)
+        self._table_wait = waiting
+        return waiting is not None
+
+    def _break_thread(self, reason):
+        """Break the thread (its load exceeded its strength): the physics stops until reset."""
+        reason = reason.splitlines()[0].replace(': the thread breaks', '')
+        self._halted = True
+        self.get_logger().error(
+            f'the thread broke: {reason} (tension 0, resistance inf) until ~/reset')
+        self._break(self._last_good[:2], f'by its load: {reason}')
 
     def _frozen_values(self, state):
         values = (state.measured_displacement, -state.velocity)
@@ -195,10 +236,11 @@ class TcaSimNode(ClockMixin, InputsMixin, OutputsMixin, ParametersMixin, Node):
             f'physics failed at t = {self._sim.state.time:.6g} s (power {self._power:g} W, '
             f'load {self._load:g} N): {self._failure}; the muscle is marked broken (last '
             'finite outputs held) until ~/reset or a parameter change')
-        self._break(self._last_good[:2])
+        self._break(self._last_good[:2], 'physics failure')
 
-    def _break(self, frozen):
+    def _break(self, frozen, cause):
         self._broken = True
+        self._broken_cause = cause
         self._frozen = frozen
         self._power = 0.0
 
@@ -216,6 +258,8 @@ class TcaSimNode(ClockMixin, InputsMixin, OutputsMixin, ParametersMixin, Node):
         self._last_good = (s.measured_displacement, -s.velocity, s.temperature)
         self._failure = None
         self._broken = False
+        self._broken_cause = ''
+        self._halted = False
         self._overheated = False
         self._frozen = None
         self._power = 0.0

@@ -74,6 +74,9 @@ class ClockMixin:
                 throttle_duration_sec=WARN_PERIOD)
             self._steps_done += n - limit
             n = limit
+        if self._physics_waits():  # a table row is being built: no physics meanwhile
+            self._steps_done += n
+            return
         wall = time.monotonic()
         if wall < self._stepping_paused_until:
             # the last catch-up ran out of its budget: every callback (each command
@@ -180,6 +183,8 @@ class ClockMixin:
                     break
                 if due - self._ticks_done > MAX_CATCH_UP / tick_s:
                     self._wall_t0 = time.monotonic() - self._ticks_done * tick_s / rtf
+            if self._physics_waits():  # the clock holds until the table row is built
+                break
             if self._task.at_end():
                 self._task.finish(self._command_power(self._sim_ns), self._broken)
                 return

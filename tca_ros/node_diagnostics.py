@@ -10,10 +10,11 @@ level  when
 OK     the muscle runs within its limits
 WARN   overheated (above ``max_temperature``, until 1 K below); watchdog tripped (no
        command for ``command_timeout``: power 0)
-ERROR  broken above ``melt_temperature``; physics failure (last finite outputs held);
+ERROR  broken above ``melt_temperature`` or by a load above ``fiber.break_force`` (the
+       cause in the message and in ``broken_cause``); physics failure (last finite outputs held);
        both until ``~/reset`` (a failure also until a parameter change)
-STALE  the physics waits: for the first ``/clock`` message (``use_sim_time``) or, in
-       lockstep, for a controller
+STALE  the physics waits: for the first ``/clock`` message (``use_sim_time``), in
+       lockstep for a controller, or for a conical rod table row being built
 =====  ================================================================================
 
 ``muscle_status`` builds the status from a ``MuscleState`` snapshot and nothing else,
@@ -52,7 +53,11 @@ class MuscleState:
     command_timeout : float
         Watchdog period (s).
     overheated, broken, watchdog_tripped : bool
-        The node's flags; ``broken`` is set by a melt and by a physics failure.
+        The node's flags; ``broken`` is set by a melt, a thread break and a physics
+        failure.
+    broken_cause : str
+        What broke the muscle ('above melt_temperature 250 degC', 'by its load:
+        tension ... exceeds fiber.break_force ...'); '' when not broken.
     failure : str or None
         Why the physics stopped (None while it runs).
     waiting : str
@@ -68,14 +73,15 @@ class MuscleState:
     command_timeout: float
     overheated: bool = False
     broken: bool = False
+    broken_cause: str = ''
     watchdog_tripped: bool = False
     failure: Optional[str] = None
     waiting: str = ''
 
     def flags(self):
         """Return the fields that set the level and message (a change is published)."""
-        return (self.overheated, self.broken, self.watchdog_tripped, self.failure,
-                self.waiting)
+        return (self.overheated, self.broken, self.broken_cause, self.watchdog_tripped,
+                self.failure, self.waiting)
 
 
 def status_level_and_message(state):
@@ -88,9 +94,9 @@ def status_level_and_message(state):
         found.append((DiagnosticStatus.ERROR,
                       f'physics failed: {state.failure}; outputs held until ~/reset'))
     elif state.broken:
+        cause = state.broken_cause or f'above melt_temperature {state.melt_temperature:g} degC'
         found.append((DiagnosticStatus.ERROR,
-                      f'broken above melt_temperature {state.melt_temperature:g} degC '
-                      '(tension 0, open circuit) until ~/reset'))
+                      f'broken {cause} (tension 0, open circuit) until ~/reset'))
     if state.waiting:
         found.append((DiagnosticStatus.STALE, f'physics waiting for {state.waiting}'))
     if state.overheated:
@@ -118,7 +124,8 @@ def muscle_values(state):
              ('watchdog_tripped', state.watchdog_tripped))
     return ([KeyValue(key=k, value=f'{v:.6g}') for k, v in numbers]
             + [KeyValue(key=k, value='true' if v else 'false') for k, v in flags]
-            + [KeyValue(key='physics_failure', value=state.failure or '')])
+            + [KeyValue(key='broken_cause', value=state.broken_cause),
+               KeyValue(key='physics_failure', value=state.failure or '')])
 
 
 def muscle_status(state, name, hardware_id):

@@ -68,13 +68,16 @@ class OutputsMixin:
         else:  # the clock read costs ~10 us: a tick passes its own time
             now = self._now_ns() if now_ns is None else now_ns
             waiting = 'the first /clock message' if now == 0 else ''
+        if self._table_wait is not None and not waiting:
+            waiting = f'the rod table row at {self._table_wait:g} degC'
         return MuscleState(
             temperature=s.temperature if self._failure is None else self._last_good[2],
             power=self._power, load=self._load,
             displacement=self._frozen[0] if self._broken else s.measured_displacement,
             max_temperature=cfg['max_temperature'], melt_temperature=cfg['melt_temperature'],
             command_timeout=cfg['command_timeout'], overheated=self._overheated,
-            broken=self._broken, watchdog_tripped=self._watchdog_tripped,
+            broken=self._broken, broken_cause=self._broken_cause,
+            watchdog_tripped=self._watchdog_tripped,
             failure=self._failure, waiting=waiting)
 
     def _noise(self, key):

@@ -105,6 +105,10 @@ def validate_node_values(values):
         raise ParameterError(
             f"parameter 'shape_rate' = {out['shape_rate']:g}: must not exceed "
             f"publish_rate ({out['publish_rate']:g} Hz)")
+    for name in sorted(NAMESPACED & set(out)):
+        if not out[name].strip():
+            raise ParameterError(f"parameter '{name}' = {out[name]!r}: must be a non-empty "
+                                 'name (a frame or joint name that tf2 and RViz can use)')
     if out['melt_temperature'] <= out['max_temperature']:
         raise ParameterError(
             f"parameter 'melt_temperature' = {out['melt_temperature']:g}: must be above "
@@ -297,8 +301,11 @@ def _set_atomically(node, params):
                 return SetParametersResult(successful=False, reason=str(exc))
     try:
         return node.set_parameters_atomically(params)
-    except ParameterNotDeclaredException as exc:
-        return SetParametersResult(successful=False, reason=f'{exc} (unknown parameter)')
+    except ParameterNotDeclaredException:
+        unknown = [p.name for p in params if not node.has_parameter(p.name)]
+        return SetParametersResult(successful=False, reason=(
+            f'parameter {", ".join(map(repr, unknown))}: unknown parameter (the tca node '
+            'declares its parameters at start-up; ros2 param list shows them)'))
     except Exception as exc:  # noqa: B902  a parameter request must never end the node
         reason = f'{type(exc).__name__}: {exc}'.splitlines()[0]
         node.get_logger().error(f'set_parameters refused after an internal error: {reason}',

@@ -18,6 +18,7 @@ from tca_ros.node_outputs import non_finite
 from tca_ros.node_params import build_simulator, check_unknown_overrides, descriptor, \
     GuardedParameterService, NAMESPACED, namespaced_name, NODE_SCHEMA, NODE_SPECS, \
     numbers_as_declared_types, physics_dt, READ_ONLY, REBUILD, validate_node_values
+from tca_ros.node_tables import muscle_temperatures, table_rows
 
 
 class ParametersMixin:
@@ -106,6 +107,9 @@ class ParametersMixin:
             if params != self._params:
                 self._params, self._sim, self._load = params, sim, load
                 self._reset_sim(temperature)
+                self._rows.stop()
+                self._rows = table_rows(params)
+                self._rows.start(muscle_temperatures(self._sim))
                 self._warm_up_shape()
             self._t0_ns, self._steps_done = None, 0
         if cfg['noise.seed'] != old_cfg['noise.seed']:

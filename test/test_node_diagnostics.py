@@ -189,6 +189,7 @@ def test_stale_until_the_clock_starts_in_a_namespace(tmp_path, probe):
         status = _wait_level(probe, probe.rows, STALE, name='/finger1/tca: muscle')
         assert status.hardware_id == 'finger1'
         assert 'waiting for the first /clock message' in status.message
+        assert 'sim clock (use_sim_time: /clock)' in node.log()  # the ready line says so
         ticks = iter(range(1, 10 ** 6))  # a simulator's /clock, 0.1 s per wall 0.1 s
 
         def clock():

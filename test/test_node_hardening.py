@@ -6,6 +6,7 @@ more (a step that raises or goes non-finite is injected).
 """
 import math
 
+from diagnostic_msgs.msg import DiagnosticStatus
 import pytest
 from rcl_interfaces.msg import Parameter as ParameterMsg
 from rcl_interfaces.msg import ParameterType, ParameterValue
@@ -289,3 +290,50 @@ def test_a_watchdog_shorter_than_the_command_period_does_not_flood_the_log(tca):
                 if 'no power or voltage command' in message or 'watchdog cleared' in message]
     assert len(watchdog) == 5  # trip, clear, trip, clear, trip (rclpy drops the repeats)
     assert all(kw.get('throttle_duration_sec', 0.0) >= 1.0 for kw in watchdog), watchdog
+
+
+def test_a_thread_break_is_a_physical_event_not_a_physics_failure(tca):
+    from dataclasses import replace
+    from tca_ros.node_diagnostics import status_level_and_message
+    params = tca._sim.params  # a weak thread: 0.4 N, and 0.5 N of load pulls past it
+    tca._sim.params = replace(params, fiber=replace(params.fiber, break_force=0.4))
+    tca._load = 0.5
+    for _ in range(50):
+        tca._advance(10)
+        tca._publish_state(tca._now_ns())
+    errors = _errors(tca)
+    assert len(errors) == 1 and errors[0].startswith('the thread broke: tension '), errors
+    assert 'fiber.break_force 0.4 N' in errors[0] and 'physics failed' not in errors[0]
+    state = tca._muscle_state()
+    assert state.broken and state.failure is None
+    level, message = status_level_and_message(state)
+    assert level == DiagnosticStatus.ERROR, message
+    assert message.startswith('broken by its load: tension '), message
+    assert tca._sample[3] == 0.0 and tca._sample[4] == math.inf  # tension 0, open circuit
+    tca._load = 0.2
+    assert tca._on_reset(Trigger.Request(), Trigger.Response()).success
+    assert not tca._broken and tca._muscle_state().broken_cause == ''
+
+
+def test_the_physics_holds_while_a_table_row_is_built(tca):
+    class Building:
+        """TableRows stand-in: the row at 55 degC is being built."""
+
+        wanted = 55.0
+
+        def missing(self, temperatures):
+            return self.wanted
+    tca._rows = Building()
+    tca._t0_ns = tca._now_ns() - 500_000_000  # 0.5 s of physics due
+    time0 = tca._sim.state.time
+    tca._catch_up()
+    tca._publish_state(tca._now_ns())  # the outputs go on
+    assert tca._sim.state.time == time0
+    assert tca._muscle_state().waiting == 'the rod table row at 55 degC'
+    assert any('physics waits for the rod table row at 55 degC' in m
+               for _, m in tca.test_log.lines)
+    Building.wanted = None  # built: the physics runs again from now on
+    tca._t0_ns -= 100_000_000
+    tca._catch_up()
+    assert tca._sim.state.time == pytest.approx(time0 + 0.1, abs=2e-3)
+    assert tca._muscle_state().waiting == ''
