@@ -20,68 +20,16 @@ STALE  the physics waits: for the first ``/clock`` message (``use_sim_time``), i
 ``muscle_status`` builds the status from a ``MuscleState`` snapshot and nothing else,
 so it is tested without a node; ``DiagnosticsPublisher`` holds the publisher and timer.
 """
-from dataclasses import dataclass
-from typing import Optional
-
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from std_msgs.msg import Header
+
+from tca_ros.node_episode import MuscleState  # noqa: F401  (re-exported: the snapshot)
 
 DIAGNOSTICS_TOPIC = '/diagnostics'  # absolute: one topic for every muscle and tool
 DIAGNOSTICS_PERIOD = 1.0  # s of wall time between repeats (the diagnostic_updater rate)
 DIAGNOSTICS_DEPTH = 10  # messages kept for a late reader (reliable, keep last)
 LEVEL_NAMES = {DiagnosticStatus.OK: 'OK', DiagnosticStatus.WARN: 'WARN',
                DiagnosticStatus.ERROR: 'ERROR', DiagnosticStatus.STALE: 'STALE'}
-
-
-@dataclass(frozen=True)
-class MuscleState:
-    """What the node knows about its muscle at one instant.
-
-    Attributes
-    ----------
-    temperature : float
-        Fiber temperature (degC), the model's (no sensor noise); the last finite one
-        after a physics failure.
-    power : float
-        Heating power applied in the last physics step (W).
-    displacement : float
-        Contraction from the loaded ambient equilibrium (m), held when broken.
-    load : float
-        External tensile load (N).
-    max_temperature, melt_temperature : float
-        Overheat and melt limits (degC), the node's parameters.
-    command_timeout : float
-        Watchdog period (s).
-    overheated, broken, watchdog_tripped : bool
-        The node's flags; ``broken`` is set by a melt, a thread break and a physics
-        failure.
-    broken_cause : str
-        What broke the muscle ('above melt_temperature 250 degC', 'by its load:
-        tension ... exceeds fiber.break_force ...'); '' when not broken.
-    failure : str or None
-        Why the physics stopped (None while it runs).
-    waiting : str
-        What the physics waits for before its first step ('' when it runs).
-    """
-
-    temperature: float
-    power: float
-    displacement: float
-    load: float
-    max_temperature: float
-    melt_temperature: float
-    command_timeout: float
-    overheated: bool = False
-    broken: bool = False
-    broken_cause: str = ''
-    watchdog_tripped: bool = False
-    failure: Optional[str] = None
-    waiting: str = ''
-
-    def flags(self):
-        """Return the fields that set the level and message (a change is published)."""
-        return (self.overheated, self.broken, self.broken_cause, self.watchdog_tripped,
-                self.failure, self.waiting)
 
 
 def status_level_and_message(state):
