@@ -6,6 +6,8 @@
 3. Command-to-feedback latency: power_cmd published -> the applied ``power`` received.
 4. Longest gap between outputs under a 2 W step, per shipped config, with an empty table
    cache (the conical rod table's rows are then built while the node runs).
+5. The rclpy loopback round trip on this machine (a Float64 to an echo process and back):
+   the limit of a lockstep loop, which needs one round trip per control tick.
 
 Usage: python bench/bench_node.py [--model rod|cst|love] [--seconds 10] [--only-gaps]
 """
@@ -140,6 +142,43 @@ def bench_fastest(log_dir, model, seconds, lockstep=False, reader=True):
     return factor
 
 
+ECHO = """
+import rclpy
+from rclpy.qos import QoSProfile
+from std_msgs.msg import Float64
+rclpy.init()
+node = rclpy.create_node('tca_bench_echo')
+pub = node.create_publisher(Float64, 'bench_pong', QoSProfile(depth=10))
+node.create_subscription(Float64, 'bench_ping', pub.publish, QoSProfile(depth=10))
+print('echo ready', flush=True)
+try:
+    rclpy.spin(node)
+except BaseException:
+    pass
+"""
+
+
+def bench_round_trip(log_dir, samples):
+    """Return round-trip times (s): Float64 to an rclpy echo process and back (loopback)."""
+    echo = NodeProcess([sys.executable, '-c', ECHO], pathlib.Path(log_dir) / 'echo.log')
+    echo.wait_for_log('echo ready')
+    probe = Probe()
+    rows = probe.record('bench_pong', Float64)
+    times = []
+    try:
+        probe.wait_matched('bench_pong')
+        for i in range(samples + 20):  # the first 20 warm up discovery and caches
+            value = float(i)
+            start = time.monotonic()
+            probe.publish('bench_ping', Float64(data=value))
+            if probe.spin_until(lambda: rows and rows[-1][1].data == value, 1.0) and i >= 20:
+                times.append(rows[-1][0] - start)
+    finally:
+        probe.close()
+        echo.stop()
+    return times
+
+
 def _sim_seconds(msg):
     return msg.clock.sec + 1e-9 * msg.clock.nanosec
 
@@ -181,8 +220,12 @@ def main():
         with tempfile.TemporaryDirectory() as log_dir:
             alone = bench_fastest(log_dir, args.model, args.seconds, reader=False)
             fast = bench_fastest(log_dir, args.model, args.seconds)
-        print(f'fastest real-time factor, publish_clock, alone / with a /clock reader (x): '
-              f'{alone:.1f} / {fast:.1f}')
+            lock = bench_fastest(log_dir, args.model, args.seconds, lockstep=True)
+            trip = statistics.median(bench_round_trip(log_dir, 500))
+        print(f'fastest real-time factor, publish_clock, alone / with a /clock reader / in '
+              f'lockstep with tca_pid (x): {alone:.1f} / {fast:.1f} / {lock:.1f}')
+        print(f'rclpy loopback round trip, median: {1e3 * trip:.3f} ms, so at most '
+              f'{0.01 / trip:.1f}x real time in lockstep at 100 Hz')
         return 0
     with tempfile.TemporaryDirectory() as log_dir:
         cpu, rate = bench_cpu(log_dir, args.model, args.seconds)
@@ -190,6 +233,7 @@ def main():
         fast = bench_fastest(log_dir, args.model, args.seconds / 2)
         lock = bench_fastest(log_dir, args.model, args.seconds / 2, lockstep=True)
         lat = sorted(bench_latency(log_dir, args.model, 100))
+        trip = statistics.median(bench_round_trip(log_dir, 500))
     load1, load5, _ = os.getloadavg()
     print(f'tca_node benchmark, model {args.model}, {os.cpu_count()} cores, '
           f'load average {load1:.1f} / {load5:.1f} (1 / 5 min: other work shares the cores)')
@@ -199,7 +243,10 @@ def main():
     print(f'{"  publish rate seen by a client (Hz)":58s} {rate:10.1f}')
     print(f'{"fastest real-time factor, publish_clock, node alone (x)":58s} {alone:10.1f}  >= 50')
     print(f'{"  the same with a client reading /clock (x)":58s} {fast:10.1f}')
-    print(f'{"real-time factor, lockstep with tca_pid (x)":58s} {lock:10.1f}')
+    print(f'{"real-time factor, lockstep with tca_pid (x)":58s} {lock:10.1f}  >= 30')
+    print(f'{"rclpy loopback round trip, median (ms)":58s} {1e3 * trip:10.3f}')
+    print(f'{"  lockstep limit at 100 Hz, one round trip a tick (x)":58s} '
+          f'{0.01 / trip:10.1f}')
     if lat:
         print(f'{"power_cmd -> power latency, median (ms)":58s} '
               f'{1e3 * statistics.median(lat):10.2f}')
