@@ -54,7 +54,7 @@ def _start(log_dir, model, *args, name='tca', config=CONFIG, env=None):
 
 
 def bench_gap(log_dir, config, seconds, cache):
-    """Return (longest gap (s), ready time (s), watchdog lines) of one config's outputs.
+    """Return (longest gap (s), its start (s from the step), ready time (s), watchdog lines).
 
     The node starts with its config's model and the table cache ``cache`` (a directory);
     a probe sends STEP_POWER at 10 Hz for ``seconds`` and records when each
@@ -77,12 +77,12 @@ def bench_gap(log_dir, config, seconds, cache):
                 next_command += COMMAND_PERIOD
             probe.spin_for(0.005)
         times = [t for t, _ in rows if t >= t0]
-        gap = max(b - a for a, b in zip(times, times[1:]))
+        gap, at = max((b - a, a - t0) for a, b in zip(times, times[1:]))
         watchdog = node.log().count('watchdog')
     finally:
         probe.close()
         node.stop()
-    return gap, ready, watchdog
+    return gap, at, ready, watchdog
 
 
 def bench_cpu(log_dir, model, seconds):
@@ -268,15 +268,15 @@ def print_gaps(seconds):
           f'10 Hz for {seconds:g} s (publish period 10 ms, target < 3 periods; load average '
           f'{load1:.1f} on {os.cpu_count()} cores)')
     print(f'{"config":28s} {"ready (s)":>10s} {"gap (ms)":>10s} {"periods":>8s} '
-          f'{"watchdog lines":>15s}')
+          f'{"at (s)":>7s} {"watchdog lines":>15s}')
     with tempfile.TemporaryDirectory() as log_dir:
         runs = [(config, 'empty cache', config) for config in CONFIGS]
         runs.append(('conical', 'rows cached', 'conical'))
         for config, cache_state, cache in runs:
-            gap, ready, watchdog = bench_gap(log_dir, config, seconds,
-                                             pathlib.Path(log_dir) / f'cache_{cache}')
+            gap, at, ready, watchdog = bench_gap(log_dir, config, seconds,
+                                                 pathlib.Path(log_dir) / f'cache_{cache}')
             print(f'{config + ", " + cache_state:28s} {ready:10.1f} {1e3 * gap:10.1f} '
-                  f'{gap / 0.01:8.1f} {watchdog:15d}')
+                  f'{gap / 0.01:8.1f} {at:7.2f} {watchdog:15d}')
 
 
 if __name__ == '__main__':
