@@ -108,7 +108,8 @@ def _bad_starts(tmp_path):
                ('missing', ['--params-file', tmp_path / 'missing.yaml']),
                ('directory', ['--params-file', tmp_path]),
                ('bad_rule', ['-p', 'physics_rate:=[1, "a"']),
-               ('unknown_rule', ['-p', 'nonexistent:=1.0'])]
+               ('unknown_rule', ['-p', 'nonexistent:=1.0']),
+               ('empty_name', ['-p', "joint_name:=''"])]
     return starts
 
 
@@ -132,6 +133,7 @@ def test_bad_start_ups_end_in_one_line_and_exit_2(tmp_path):
     assert "'fiber.radiuss' = 0.1: unknown parameter" in logs['misspelt']
     assert "'foo' = 1: unknown parameter" in logs['unknown']
     assert "'nonexistent' = 1.0: unknown parameter" in logs['unknown_rule']
+    assert "'joint_name' = '': must be a non-empty name" in logs['empty_name']
     assert 'no such file' in logs['missing'] and 'not a regular file' in logs['directory']
     assert 'aliases' in logs['alias'] and 'invalid YAML (line 3' in logs['tabs']
     assert "'thermal.convection_coefficient' = 0.0" in logs['no_convection']
