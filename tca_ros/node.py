@@ -6,13 +6,15 @@ positive), ``temperature`` (sensor_msgs/Temperature, degC), ``resistance`` (ohm)
 ``power`` (W, the power actually applied), ``joint_states`` (position = displacement,
 velocity = contraction rate, effort = tension), and ``shape`` (visualization_msgs/Marker)
 at ``shape_rate``; the muscle's state goes to ``/diagnostics`` (tca_ros.node_diagnostics).
-The physics (tca_ros.model.dynamics.TcaSimulator) runs at ``physics_rate``. Time modes,
-parameters and examples: docs/node.md.
+
+``TcaSimNode`` is a thin shell: what the node decides (commands, clamps, watchdog,
+limits, the clock, lockstep, parameter changes) is tca_ros.node_core.NodeCore, plain
+Python tested without ROS; here messages and parameters are turned into its calls and
+its plain outputs into messages. Time modes, parameters and examples: docs/node.md.
 """
-import math
 import sys
 
-import numpy as np
+from rcl_interfaces.msg import SetParametersResult
 import rclpy
 from rclpy._rclpy_pybind11 import RCLError
 from rclpy.clock import Clock, ClockType
@@ -20,205 +22,238 @@ from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.qos import QoSProfile
 from rosgraph_msgs.msg import Clock as ClockMsg
+from std_msgs.msg import Float64
+from std_srvs.srv import Trigger
 
-from tca_ros.model.params import ParameterError
-from tca_ros.model.resistance import power_from_voltage
-from tca_ros.model.rigs import start_load
-from tca_ros.node_clock import ClockMixin, NS, time_msg, WARN_PERIOD
+from tca_ros.model.params import from_flat_dict, ParameterError, SCHEMA, SPECS
 from tca_ros.node_cmdline import check_ros_arguments, init_quietly, log_fatal
+from tca_ros.node_core import NodeCore
 from tca_ros.node_diagnostics import DiagnosticsPublisher
-from tca_ros.node_inputs import InputsMixin
-from tca_ros.node_outputs import non_finite, OutputsMixin
+from tca_ros.node_episode import Log, WARN_PERIOD
+from tca_ros.node_outputs import COMMAND_QOS, StateOutputs, time_msg, warm_up_shape
 from tca_ros.node_params import (  # noqa: F401  (re-exported: the node's parameter API)
     build_simulator, check_unknown_overrides,
     descriptor, GuardedParameterService, INTEGER_NAMES,
     NAMESPACED, namespaced_name, NODE_SCHEMA, NODE_SPECS,
     numbers_as_declared_types, physics_dt, physics_steps_per_tick, READ_ONLY, REBUILD,
     validate_node_values)
-from tca_ros.node_reconfigure import ParametersMixin
 from tca_ros.node_rigs import RigTopics
 from tca_ros.node_spin import spin_resiliently
 from tca_ros.node_task import TaskPlayer
 
-
 CLOCK_QOS = QoSProfile(depth=1)  # reliable writer; rclpy's clock reader is best effort
+FAST_PERIOD = 1e-3  # s, wall period of the tick timer in publish_clock mode, factor 0
+LOCKSTEP_POLL = 0.01  # s, wall period of that timer in lockstep (wake-ups cost ~0.1 ms)
 
-MAX_TEMPERATURE_REARM = 1.0  # K below max_temperature before a new crossing is logged
 
-
-class TcaSimNode(ClockMixin, InputsMixin, OutputsMixin, ParametersMixin, Node):
-    """Step the TCA model at physics_rate and publish its state at publish_rate.
-
-    Here: start-up and the physics episode (commands, watchdog, limits, failure, reset);
-    the time in node_clock.ClockMixin, the inputs (subscriptions, ~/reset) in
-    node_inputs.InputsMixin, the outputs (and their publishers) in
-    node_outputs.OutputsMixin, the parameters (declared, then changed) in
-    node_reconfigure.ParametersMixin.
-    """
+class TcaSimNode(Node):
+    """The ``tca`` node: topics, services, parameters and timers around a NodeCore."""
 
     def __init__(self, **kwargs):
         kwargs['start_parameter_services'] = False  # ours refuse what rclpy cannot convert
         super().__init__('tca', **kwargs)
-        self._declare_parameters()
-
-        self._rng = np.random.default_rng(int(self._cfg['noise.seed']))
-        self._drive = ('power', 0.0)  # last valid command: ('power', W) or ('voltage', V)
-        self._last_command_ns = None  # node time of the last valid command
-        self._watchdog_tripped = False
-        self._load = start_load(self._params)  # N: dead weight, or the spring's F_0
-        self._power = 0.0  # W, applied in the last physics step
-        self._broken = False
-        self._failure = None  # why the physics stopped (None while it runs)
-        self._overheated = False
-        self._frozen = None  # (displacement, velocity) when the muscle broke
-        self._last_good = (0.0, 0.0, self._sim.state.temperature)  # displ., rate, temp.
-        self._steps_done = 0
-        self._t0_ns = None
-        self._sim_ns = 0  # node-owned time with publish_clock
-        self._awaiting_command = False
-        self._await_deadline = 0.0
-        self._started = False
-        self._wall_first_tick = None
-        self._wall_t0 = None
-        self._ticks_done = 0
-        self._next_shape_ns = 0
-        self._next_shape_wall = 0.0
-        self._stepping_paused_until = 0.0  # monotonic s: no catch-up before (overload)
-
-        self._create_output_publishers()
-        self._create_inputs()
-        self._rig = RigTopics(self, self._params.rig.mode, lambda: self._cfg,
-                              self._command_time)
-
-        self._owns_time = self._cfg['publish_clock']
+        params, cfg, sim = self._declare_parameters()
+        self._owns_time = cfg['publish_clock']
         self._wall = Clock(clock_type=ClockType.STEADY_TIME)
+        self._outputs = StateOutputs(self)
+        self._power_sub = self.create_subscription(
+            Float64, 'power_cmd', lambda m: self.core.power_command(m.data), COMMAND_QOS)
+        self._voltage_sub = self.create_subscription(
+            Float64, 'voltage_cmd', lambda m: self.core.voltage_command(m.data), COMMAND_QOS)
+        self.create_subscription(Float64, 'load', lambda m: self.core.load_command(m.data),
+                                 COMMAND_QOS)
+        self.create_service(Trigger, '~/reset', self._on_reset)
+        self._rig = RigTopics(self, params.rig.mode, lambda: self.core.cfg,
+                              lambda: self.core.command_time())
         if self._owns_time:
             self._clock_pub = self.create_publisher(ClockMsg, '/clock', CLOCK_QOS)
         # scored tasks (tca_sim score --namespace): reference and load per tick
-        self._task = TaskPlayer(self, self._start_task, lambda: self._cfg['joint_name'])
+        task = TaskPlayer(self, lambda load: self.core.start_task(load),
+                          lambda: self.core.cfg['joint_name'])
+        self.core = NodeCore(
+            params, cfg, sim, owns_time=self._owns_time,
+            clock_ns=lambda: self.get_clock().now().nanoseconds,
+            publish_tick=self._publish_tick, republish=self._republish,
+            log=Log(self._log_line),
+            rig=self._rig, task=task)
+        self.add_pre_set_parameters_callback(numbers_as_declared_types)
+        self.add_on_set_parameters_callback(self._on_set_parameters)
         self._timer = None
         self._make_timer()
         self._diagnostics = DiagnosticsPublisher(
-            self, self._muscle_state, lambda: time_msg(self._now_ns()), self._wall)
+            self, self.core.muscle_state, lambda: time_msg(self.core.now_ns()), self._wall)
         try:
-            self._reset_sim()
+            self.core.episode.start()
         except (ValueError, ArithmeticError) as exc:  # one line at start-up, no traceback
             raise ParameterError(str(exc).splitlines()[0]) from None
-        self._warm_up_shape()
+        warm_up_shape(params, sim.state, cfg)
         self.get_logger().info(
-            f'tca node ready: model {self._params.model}, physics {self._cfg["physics_rate"]:g} '
-            f'Hz, publish {self._cfg["publish_rate"]:g} Hz, '
-            + (f'own clock x{self._cfg["real_time_factor"]:g}' if self._owns_time
-               else 'node clock'))
+            f'tca node ready: model {params.model}, physics {cfg["physics_rate"]:g} Hz, '
+            f'publish {cfg["publish_rate"]:g} Hz, {self._clock_name()}')
 
-    # -- physics ----------------------------------------------------------------------
-    def _command_power(self, now_ns):
-        """Return the power (W) to apply now: watchdog, limits, voltage drive."""
-        if self._broken:
-            return 0.0
-        timeout = self._cfg['command_timeout']
-        if self._last_command_ns is not None and timeout > 0.0 and \
-                now_ns - self._last_command_ns > timeout * NS:
-            if not self._watchdog_tripped:
-                self._watchdog_tripped = True
-                # throttled: a command_timeout shorter than the command period trips
-                # and clears the watchdog at every message (fuzz_node: 30 lines/s)
-                self.get_logger().warning(
-                    f'no power or voltage command for {timeout:g} s: power set to 0',
-                    throttle_duration_sec=WARN_PERIOD)
-            return 0.0
-        kind, value = self._drive
-        if kind == 'voltage':
-            resistance = self._sim.state.resistance
-            if not resistance > 0.0:  # R(T, x) law taken outside its range
-                self.get_logger().warning(
-                    f'resistance {resistance:g} ohm is not positive: voltage drive gives '
-                    'power 0 (check electrical.*)', throttle_duration_sec=WARN_PERIOD)
-                return 0.0
-            power = power_from_voltage(value, resistance)
-            if power > self._cfg['max_power']:
-                self.get_logger().warning(
-                    f'voltage_cmd {value:g} V gives {power:g} W at {resistance:.4g} ohm, above '
-                    f'max_power {self._cfg["max_power"]:g} W: clamped',
-                    throttle_duration_sec=WARN_PERIOD)
-            value = power
-        return min(max(value, 0.0), self._cfg['max_power'])
+    def _log_line(self, level, text):
+        """Write a line of the core's log ('info', 'warning' or 'error')."""
+        logger = self.get_logger()  # rclpy ties one severity to each call site
+        if level == 'error':
+            logger.error(text)
+        elif level == 'warning':
+            logger.warning(text)
+        else:
+            logger.info(text)
 
-    def _advance(self, n_steps):
-        """Run n physics steps with the current command and load.
+    def _clock_name(self):
+        """Return which clock the node runs on, for the ready line."""
+        if self._owns_time:
+            return f'own clock x{self.core.cfg["real_time_factor"]:g} (publishes /clock)'
+        if self.get_parameter('use_sim_time').value:
+            return 'sim clock (use_sim_time: /clock)'
+        return 'node clock (system time)'
 
-        A step that raises or leaves a non-finite state ends the episode: the muscle
-        is marked broken with its last finite outputs and the physics stops until
-        ~/reset or a parameter change (one error line, not one per step).
+    # -- time ---------------------------------------------------------------------------
+    def _make_timer(self):
+        """(Re)create the tick timer for the time mode and rates."""
+        if self._timer is not None:
+            self.destroy_timer(self._timer)
+        cfg = self.core.cfg
+        if self._owns_time:
+            rtf = cfg['real_time_factor']
+            period = FAST_PERIOD if rtf == 0.0 else min(
+                FAST_PERIOD * 10, 1.0 / (cfg['publish_rate'] * rtf))
+            if cfg['lockstep']:
+                # Commands drive the ticks; the timer only starts them and times out.
+                period = max(period, LOCKSTEP_POLL)
+            self._timer = self.create_timer(period, self._on_clock_timer, clock=self._wall)
+            self.core.retimed()
+        else:
+            self._timer = self.create_timer(1.0 / cfg['publish_rate'], self._on_timer)
+
+    def _on_timer(self):
+        """Catch the physics up to the ROS clock and publish; a failure never raises."""
+        try:
+            self.core.catch_up()
+            self._publish_state(self.core.now_ns())
+        except Exception as exc:  # noqa: B902  a tick must never end the node
+            self._fail_unless_stopping(exc)
+
+    def _on_clock_timer(self):
+        """Tick the node-owned clock; a failure marks the muscle broken, never raises."""
+        try:
+            self.core.clock_tick(self._peers_matched)
+        except Exception as exc:  # noqa: B902  a tick must never end the node
+            self._fail_unless_stopping(exc)
+
+    def _fail_unless_stopping(self, exc):
+        """Fail the episode on exc, unless a signal shut the context down meanwhile."""
+        if self.context.ok():
+            self.core.episode.fail(f'{type(exc).__name__}: {exc}')
+
+    def _peers_matched(self):
+        """Return True when a controller reads the state and writes commands."""
+        readers = self._outputs.joint.get_subscription_count() \
+            + self._outputs.displacement.get_subscription_count()
+        writers = self._power_sub.get_publisher_count() \
+            + self._voltage_sub.get_publisher_count()
+        return readers > 0 and writers > 0
+
+    def log_time_summary(self):
+        """Log the sim time reached and its ratio to wall time (publish_clock mode)."""
+        summary = self.core.time_summary()
+        if summary is not None:
+            sim, wall = summary
+            # Not the node's logger: at shutdown its /rosout publisher is already gone.
+            rclpy.logging.get_logger('tca.time').info(
+                f'simulated {sim:.3f} s in {wall:.3f} s of wall time '
+                f'({sim / max(wall, 1e-9):.1f}x real time)')
+
+    # -- outputs ------------------------------------------------------------------------
+    def _publish_tick(self, now_ns):
+        """Publish /clock and the state of a tick of the own clock."""
+        self._clock_pub.publish(ClockMsg(clock=time_msg(now_ns)))
+        self._publish_state(now_ns)
+
+    def _republish(self):
+        """Publish the last tick again (same values): lockstep before the first command."""
+        self._clock_pub.publish(ClockMsg(clock=time_msg(self.core.sim_ns)))
+        self._outputs.emit(self.core.episode.sample, self.core.cfg, self._rig)
+
+    def _publish_state(self, now_ns):
+        """Sample the state now (stamps = node time, ns), publish it and the shape."""
+        ep = self.core.episode
+        self._outputs.emit(ep.take_sample(now_ns), ep.cfg, self._rig)
+        if ep.failure is None:
+            self._outputs.shape(ep.params, ep.sim.state, ep.cfg, now_ns)
+        self._diagnostics.update(self.core.muscle_state(now_ns))
+
+    # -- services and parameters ------------------------------------------------------
+    def _on_reset(self, request, response):
+        try:
+            self.core.reset()
+        except Exception as exc:  # noqa: B902  a reset request must never end the node
+            response.success = False
+            response.message = (f'reset failed: {type(exc).__name__}: {exc}'.splitlines()[0]
+                                + f' (load {self.core.episode.load:g} N); the muscle stays '
+                                'broken')
+            self.get_logger().error(response.message, throttle_duration_sec=WARN_PERIOD)
+            return response
+        response.success = True
+        ep = self.core.episode
+        response.message = (f'reset to the loaded equilibrium at '
+                            f'{ep.sim.state.temperature:g} degC, load {ep.load:g} N')
+        self.get_logger().info(response.message)
+        self._diagnostics.update()
+        return response
+
+    def _declare_parameters(self):
+        """Declare the schema's and the node's parameters; return (params, cfg, simulator).
+
+        A bad start-up value raises ParameterError with the schema's one-line message.
         """
-        now = self._now_ns()
-        self._rig.drive(self._sim, now, self._broken)
-        for i in range(n_steps):
-            if self._failure is not None:
-                return
-            if i == 0 or self._drive[0] == 'voltage':  # V^2 / R follows R(T, x)
-                self._power = self._command_power(now)
-            try:
-                state = self._sim.step(self._power, self._load)
-            except Exception as exc:  # noqa: B902  ZeroDivision, Overflow, StabilityError...
-                self._fail(f'{type(exc).__name__}: {exc}')
-                return
-            bad = non_finite(state)
-            if bad:
-                self._fail(f'{bad} = {getattr(state, bad)!r} (non-finite state)')
-                return
-            temp = self._rig.hottest(self._sim)
-            if temp > self._cfg['max_temperature'] and not self._overheated:
-                self._overheated = True
-                self.get_logger().error(
-                    f'temperature {temp:.1f} degC above max_temperature '
-                    f'{self._cfg["max_temperature"]:g} degC')
-            elif temp < self._cfg['max_temperature'] - MAX_TEMPERATURE_REARM:
-                self._overheated = False
-            if temp > self._cfg['melt_temperature'] and not self._broken:
-                self.get_logger().error(
-                    f'temperature {temp:.1f} degC above melt_temperature '
-                    f'{self._cfg["melt_temperature"]:g} degC: the muscle broke '
-                    '(tension 0, resistance inf) until ~/reset')
-                self._break(self._frozen_values(state))
+        self._parameter_service = GuardedParameterService(self)
+        all_specs = [(s, s.name in READ_ONLY) for s in SCHEMA + NODE_SCHEMA]
+        for spec, _ in all_specs:
+            default = spec.default if spec.name not in NAMESPACED else \
+                namespaced_name(self.get_namespace(), spec.default)
+            self.declare_parameter(spec.name, default, descriptor(spec, with_range=False))
+        check_unknown_overrides(self)  # a misspelt name is refused, as tca_sim does
+        params = from_flat_dict({s.name: self.get_parameter(s.name).value for s in SCHEMA},
+                                source='ros parameters')
+        cfg = validate_node_values(
+            {s.name: self.get_parameter(s.name).value for s in NODE_SCHEMA})
+        sim = build_simulator(params, cfg)
+        # 1000.0 from a params file is stored as the INTEGER it names, 25 for a DOUBLE
+        # as 25.0: every parameter keeps its declared type.
+        self.set_parameters(numbers_as_declared_types(
+            [self.get_parameter(spec.name) for spec, _ in all_specs]))
+        # Ranges only now: a bad start-up value gets the schema's one-line message above.
+        for spec, read_only in all_specs:
+            self.set_descriptor(spec.name, descriptor(spec, read_only))
+        return params, cfg, sim
 
-    def _frozen_values(self, state):
-        values = (state.measured_displacement, -state.velocity)
-        return values if all(map(math.isfinite, values)) else self._last_good[:2]
+    def _on_set_parameters(self, parameters):
+        """Check new values against the schema and cross-parameter rules; apply them.
 
-    def _fail(self, reason):
-        """End the episode once: log why, mark the muscle broken, stop the physics."""
-        if self._failure is not None:
-            return
-        self._failure = reason.splitlines()[0] if reason else 'unknown'
-        self.get_logger().error(
-            f'physics failed at t = {self._sim.state.time:.6g} s (power {self._power:g} W, '
-            f'load {self._load:g} N): {self._failure}; the muscle is marked broken (last '
-            'finite outputs held) until ~/reset or a parameter change')
-        self._break(self._last_good[:2])
-
-    def _break(self, frozen):
-        self._broken = True
-        self._frozen = frozen
-        self._power = 0.0
-
-    def _reset_sim(self, temperature=None):
-        """Return to the loaded equilibrium at temperature (degC, default ambient).
-
-        Raises ValueError or ArithmeticError (state unchanged) when the model has no
-        finite equilibrium there, e.g. under a load the coil cannot hold.
+        Never raises: an unexpected error refuses the request with its reason.
         """
-        self._sim.reset(load=self._load, temperature=temperature)
-        bad = non_finite(self._sim.state)
-        if bad:
-            raise ValueError(f'{bad} = {getattr(self._sim.state, bad)!r} at the equilibrium')
-        s = self._sim.state
-        self._last_good = (s.measured_displacement, -s.velocity, s.temperature)
-        self._failure = None
-        self._broken = False
-        self._overheated = False
-        self._frozen = None
-        self._power = 0.0
+        owned = [p for p in parameters if p.name in SPECS or p.name in NODE_SPECS]
+        if not owned:
+            return SetParametersResult(successful=True)
+        try:
+            tca_values = {s.name: self.get_parameter(s.name).value for s in SCHEMA}
+            node_values = dict(self.core.cfg)
+            for p in owned:
+                (tca_values if p.name in SPECS else node_values)[p.name] = p.value
+            change = self.core.reconfigure(tca_values, node_values, [p.name for p in owned])
+            if change.rebuilt:
+                ep = self.core.episode
+                warm_up_shape(ep.params, ep.sim.state, ep.cfg)
+            if change.retime:
+                self._make_timer()
+            return SetParametersResult(successful=change.successful, reason=change.reason)
+        except Exception as exc:  # noqa: B902  a parameter request must never end the node
+            reason = f'{type(exc).__name__}: {exc}'.splitlines()[0]
+            self.get_logger().error(f'parameter change refused: {reason}',
+                                    throttle_duration_sec=WARN_PERIOD)
+            return SetParametersResult(successful=False, reason=reason)
 
 
 def main(args=None):

@@ -10,72 +10,26 @@ level  when
 OK     the muscle runs within its limits
 WARN   overheated (above ``max_temperature``, until 1 K below); watchdog tripped (no
        command for ``command_timeout``: power 0)
-ERROR  broken above ``melt_temperature``; physics failure (last finite outputs held);
+ERROR  broken above ``melt_temperature`` or by a load above ``fiber.break_force`` (the
+       cause in the message and in ``broken_cause``); physics failure (last finite outputs held);
        both until ``~/reset`` (a failure also until a parameter change)
-STALE  the physics waits: for the first ``/clock`` message (``use_sim_time``) or, in
-       lockstep, for a controller
+STALE  the physics waits: for the first ``/clock`` message (``use_sim_time``), in
+       lockstep for a controller, or for a conical rod table row being built
 =====  ================================================================================
 
 ``muscle_status`` builds the status from a ``MuscleState`` snapshot and nothing else,
 so it is tested without a node; ``DiagnosticsPublisher`` holds the publisher and timer.
 """
-from dataclasses import dataclass
-from typing import Optional
-
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from std_msgs.msg import Header
+
+from tca_ros.node_episode import MuscleState  # noqa: F401  (re-exported: the snapshot)
 
 DIAGNOSTICS_TOPIC = '/diagnostics'  # absolute: one topic for every muscle and tool
 DIAGNOSTICS_PERIOD = 1.0  # s of wall time between repeats (the diagnostic_updater rate)
 DIAGNOSTICS_DEPTH = 10  # messages kept for a late reader (reliable, keep last)
 LEVEL_NAMES = {DiagnosticStatus.OK: 'OK', DiagnosticStatus.WARN: 'WARN',
                DiagnosticStatus.ERROR: 'ERROR', DiagnosticStatus.STALE: 'STALE'}
-
-
-@dataclass(frozen=True)
-class MuscleState:
-    """What the node knows about its muscle at one instant.
-
-    Attributes
-    ----------
-    temperature : float
-        Fiber temperature (degC), the model's (no sensor noise); the last finite one
-        after a physics failure.
-    power : float
-        Heating power applied in the last physics step (W).
-    displacement : float
-        Contraction from the loaded ambient equilibrium (m), held when broken.
-    load : float
-        External tensile load (N).
-    max_temperature, melt_temperature : float
-        Overheat and melt limits (degC), the node's parameters.
-    command_timeout : float
-        Watchdog period (s).
-    overheated, broken, watchdog_tripped : bool
-        The node's flags; ``broken`` is set by a melt and by a physics failure.
-    failure : str or None
-        Why the physics stopped (None while it runs).
-    waiting : str
-        What the physics waits for before its first step ('' when it runs).
-    """
-
-    temperature: float
-    power: float
-    displacement: float
-    load: float
-    max_temperature: float
-    melt_temperature: float
-    command_timeout: float
-    overheated: bool = False
-    broken: bool = False
-    watchdog_tripped: bool = False
-    failure: Optional[str] = None
-    waiting: str = ''
-
-    def flags(self):
-        """Return the fields that set the level and message (a change is published)."""
-        return (self.overheated, self.broken, self.watchdog_tripped, self.failure,
-                self.waiting)
 
 
 def status_level_and_message(state):
@@ -88,9 +42,9 @@ def status_level_and_message(state):
         found.append((DiagnosticStatus.ERROR,
                       f'physics failed: {state.failure}; outputs held until ~/reset'))
     elif state.broken:
+        cause = state.broken_cause or f'above melt_temperature {state.melt_temperature:g} degC'
         found.append((DiagnosticStatus.ERROR,
-                      f'broken above melt_temperature {state.melt_temperature:g} degC '
-                      '(tension 0, open circuit) until ~/reset'))
+                      f'broken {cause} (tension 0, open circuit) until ~/reset'))
     if state.waiting:
         found.append((DiagnosticStatus.STALE, f'physics waiting for {state.waiting}'))
     if state.overheated:
@@ -118,7 +72,8 @@ def muscle_values(state):
              ('watchdog_tripped', state.watchdog_tripped))
     return ([KeyValue(key=k, value=f'{v:.6g}') for k, v in numbers]
             + [KeyValue(key=k, value='true' if v else 'false') for k, v in flags]
-            + [KeyValue(key='physics_failure', value=state.failure or '')])
+            + [KeyValue(key='broken_cause', value=state.broken_cause),
+               KeyValue(key='physics_failure', value=state.failure or '')])
 
 
 def muscle_status(state, name, hardware_id):

@@ -20,9 +20,9 @@ from sensor_msgs.msg import Temperature
 from std_msgs.msg import Float64
 
 from tca_ros.model.rigs import ANTAGONISTIC, ISOMETRIC, SPRING
-from tca_ros.node_clock import NS, WARN_PERIOD
-from tca_ros.node_inputs import COMMAND_QOS  # as the node's own command topics
-from tca_ros.node_outputs import STATE_QOS  # as the node's state topics
+from tca_ros.node_core import NS
+from tca_ros.node_episode import WARN_PERIOD
+from tca_ros.node_outputs import COMMAND_QOS, STATE_QOS  # as the node's own topics
 
 
 class RigTopics:

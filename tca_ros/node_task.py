@@ -40,12 +40,14 @@ from rclpy.qos import QoSProfile
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64, Float64MultiArray
 
+from tca_ros.node_core import TASK_GAP  # noqa: F401  (documented above; the core applies it)
+from tca_ros.node_outputs import time_msg
+
 TASK_HEADER = 2  # serial, N
 RECORD_HEADER = 5  # serial, missed, extra, broken, N
 MAX_TASK_SAMPLES = 1_000_000  # 10^4 s at 100 Hz: a bound on memory, not a physical one
 SETPOINT_QOS = QoSProfile(depth=10)
 TASK_QOS = QoSProfile(depth=1)
-TASK_GAP = 2.0  # s of node time between a task's first state and the state before it
 WARN_PERIOD = 1.0  # s between repeats of a throttled warning
 
 
@@ -132,12 +134,12 @@ class TaskPlayer:
         self.holding = False
         self._node.get_logger().info(f'task {serial:g}: {len(reference)} ticks')
 
-    def before_state(self, stamp):
-        """Publish r_k stamped ``stamp`` (builtin_interfaces/Time); return load_k (N)."""
+    def before_state(self, now_ns):
+        """Publish r_k stamped ``now_ns`` (node time, ns); return load_k (N)."""
         k = len(self._rows)
         reference = float(self._reference[k])
         msg = JointState(name=[self._joint_name()], position=[reference])
-        msg.header.stamp = stamp
+        msg.header.stamp = time_msg(now_ns)
         self._reference_pub.publish(msg)
         self._setpoint_pub.publish(Float64(data=reference))
         return float(self._load[k])

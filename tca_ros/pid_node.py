@@ -121,6 +121,9 @@ class TcaPidNode(Node):
             self.get_namespace(), 'tca_joint'), ParameterDescriptor(
             description='Joint of joint_states to control (joint_name of tca_node).',
             read_only=True)).value
+        if not self._joint.strip():
+            raise ValueError(f"parameter 'joint_name' = {self._joint!r}: must be a non-empty "
+                             'name (the joint_name of tca_node)')
         self.add_on_set_parameters_callback(self._on_set_parameters)
         self._last_stamp_ns = None
         self._waited_for_match = False

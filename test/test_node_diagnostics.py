@@ -189,6 +189,7 @@ def test_stale_until_the_clock_starts_in_a_namespace(tmp_path, probe):
         status = _wait_level(probe, probe.rows, STALE, name='/finger1/tca: muscle')
         assert status.hardware_id == 'finger1'
         assert 'waiting for the first /clock message' in status.message
+        assert 'sim clock (use_sim_time: /clock)' in node.log()  # the ready line says so
         ticks = iter(range(1, 10 ** 6))  # a simulator's /clock, 0.1 s per wall 0.1 s
 
         def clock():
@@ -211,23 +212,24 @@ def test_a_physics_failure_is_an_error_until_reset():
                       namespace='/injected')
     sent = []
     node._diagnostics._pub = type('Recorder', (), {'publish': staticmethod(sent.append)})
+    ep = node.core.episode
     try:
-        node._advance(10)
-        node._publish_state(node._now_ns())
+        ep.advance(10, node.core.now_ns())
+        node._publish_state(node.core.now_ns())
         assert [s.level for m in sent for s in m.status] == [OK]
 
         def broken_step(power, load=None):
             raise ZeroDivisionError('float division by zero')
-        node._sim.step = broken_step
+        ep.sim.step = broken_step
         for _ in range(20):  # 20 ticks: one status for the change, not one per tick
-            node._advance(10)
-            node._publish_state(node._now_ns())
+            ep.advance(10, node.core.now_ns())
+            node._publish_state(node.core.now_ns())
         (status,) = sent[1].status
         assert len(sent) == 2 and status.level == ERROR, [m.status for m in sent]
         assert status.message.startswith('physics failed: ZeroDivisionError: float division')
         assert math.isfinite(float(_values(status)['temperature (degC)']))
         assert status.name == '/injected/tca: muscle'
-        del node._sim.step
+        del ep.sim.step
         assert node._on_reset(Trigger.Request(), Trigger.Response()).success
         assert len(sent) == 3 and sent[2].status[0].level == OK
     finally:

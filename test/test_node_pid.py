@@ -63,13 +63,16 @@ def test_parameter_check_names_parameter_value_and_range():
         checked_value('max_power', 'hot')
 
 
-def test_bad_start_up_parameter_exits_with_one_line(tmp_path):
-    node = NodeProcess(module_command('tca_ros.pid_node', ['-p', 'min_power:=3.0']),
-                       tmp_path / 'pid.log')
+@pytest.mark.parametrize('rule, line', [
+    ('min_power:=3.0', "'min_power' = 3: must not exceed max_power (2 W)"),
+    ("joint_name:=''", "'joint_name' = '': must be a non-empty name"),
+])
+def test_bad_start_up_parameter_exits_with_one_line(tmp_path, rule, line):
+    node = NodeProcess(module_command('tca_ros.pid_node', ['-p', rule]), tmp_path / 'pid.log')
     try:
         assert node.proc.wait(60) == 2
     finally:
         node.stop()
     log = node.log().strip()
     assert len(log.splitlines()) == 1 and 'Traceback' not in log
-    assert "'min_power' = 3: must not exceed max_power (2 W)" in log
+    assert line in log

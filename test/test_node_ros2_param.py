@@ -128,6 +128,9 @@ def test_ros2_param_set_of_every_type(probe, name, text, kind):
      "= '[1e-6, -6.7e-5, 1.0]' (a string, not a list): must be a list of 3 finite numbers"),
     ('fiber.gamma_coefficients', '[3.54e-6, -6.705e-5, 1]',
      'sends a list mixing integers and floats as a string: write the integers as floats'),
+    ('nonexistent', '1.0', "parameter 'nonexistent': unknown parameter"),
+    ('joint_name', "''", "parameter 'joint_name' = '': must be a non-empty name"),
+    ('frame_id', "' '", "parameter 'frame_id' = ' ': must be a non-empty name"),
 ])
 def test_ros2_param_set_refusals_give_the_reason(tca, probe, name, text, reason):
     result = _ros2_param_set(probe, 'tca', name, text)
