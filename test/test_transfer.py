@@ -206,3 +206,47 @@ def test_simulate_warns_when_a_calibrated_muscle_runs_past_its_calibration(
     assert main(['simulate', '--config', cal, '--model', 'cst', '--input', str(profile),
                  '--rate', '2'], out=io.StringIO()) == 0
     assert 'extrapolates' not in capsys.readouterr().err
+
+
+def test_a_spring_rig_record_calibrates_and_is_predicted(tmp_path):
+    # the muscle on a 20 N/m series spring pulling 0.1 N at rest (the rig's full dynamics),
+    # logged with its displacement and the gauge's force: calibrated from it alone, the
+    # file then predicts the same muscle on the spring at another power
+    from tca_ros.diagnosis.calibration import calibrate
+    from tca_ros.diagnosis.data import read_record
+    from tca_ros.model.rig_simulation import simulate_rig
+    start = describe_muscle(SPEC).params
+    truth = start.with_values(**{'fiber.untwist_gain': 1.3, 'rig.mode': 'spring',
+                                 'rig.pretension': 0.1, 'rig.spring_stiffness': 20.0})
+    rng = np.random.default_rng(6)
+    t = np.arange(0.0, 60.0, 0.2)
+    paths = []
+    for k, w in enumerate((0.3, 0.5, 0.7)):
+        p = np.where((t >= 10.0) & (t < 35.0), w, 0.0)
+        c = simulate_rig(truth, t, p, np.full_like(t, 0.1), model='cst',
+                         physics_rate=500.0).columns
+        x = c['displacement'] + 5e-6 * rng.standard_normal(t.size)
+        f = c['force'] + 1e-4 * rng.standard_normal(t.size)
+        path = tmp_path / f'spring{k}.csv'
+        path.write_text('# tca: free_stroke\n# mass_kg: 0.001\n# sample_rate_hz: 5\n'
+                        '# rig: spring\n# spring_stiffness_n_per_m: 20\n'
+                        'time,power,load,displacement,force\n'
+                        + ''.join(f'{a:.3f},{b:.4f},0.1,{d:.9f},{e:.6f}\n'
+                                  for a, b, d, e in zip(t, p, x, f)))
+        paths.append(str(path))
+    records = [read_record(p) for p in paths]
+    cal = calibrate(records[:2], start, model='cst')
+    assert cal.report.success and 'force' in cal.channels
+    assert max(cal.nrmse) < 0.03, cal.nrmse
+    out = tmp_path / 'cal.yaml'
+    assert run(['calibrate', *paths[:2], '--config', str(_dump(start, tmp_path)), '--out',
+                str(out), '--model', 'cst', '--quiet'])[0] == 0
+    code, text = run(['validate', paths[2], '--config', str(out), '--model', 'cst'])
+    row = next(line.split() for line in text.splitlines() if line.startswith('spring2'))
+    assert code == 0 and float(row[3].rstrip('%')) < 5.0, text
+
+
+def _dump(params, folder):
+    path = folder / 'start.yaml'
+    dump_params(params, str(path))
+    return path
