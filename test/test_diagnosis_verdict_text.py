@@ -36,13 +36,13 @@ def _check_numbers(sentence):
         assert (float(p) < float(alpha)) == (op == '<'), sentence
         checked += 1
     for value, side, floor in re.findall(
-            r'predict ([0-9.e+-]+) um of the residual \([^)]*\), (above|within) its floor '
+            r'predict ([0-9.e+-]+) um of the residual \(F-test [^)]*\), (above|within) its floor '
             r'([0-9.e+-]+) um', sentence):
         assert (float(value) > float(floor)) == (side == 'above'), sentence
         checked += 1
     for wander, limit in re.findall(r'([0-9.e+-]+) um that neither the inputs nor an offset '
-                                    r'and a drift describe exceeds [0-9.]+ % of the swing '
-                                    r'\(([0-9.e+-]+) um\)', sentence):
+                                    r'and a drift describe exceeds [0-9.]+ % of the '
+                                    r'[0-9.e+]+ um swing \(([0-9.e+-]+) um\)', sentence):
         assert float(wander) > float(limit), sentence
         checked += 1
     return checked

@@ -26,6 +26,11 @@ def _scale(unit):
     return (1e6, 'um') if unit == 'm' else (1.0, unit)
 
 
+def _num(value):
+    """Return a swing for print: whole units from 1000 up, else 3 significant digits."""
+    return f'{value:.0f}' if abs(value) >= 1e3 else f'{value:.3g}'
+
+
 def _alpha():
     return f'{STRUCTURE_ALPHA:g}'
 
@@ -50,9 +55,10 @@ def channel_clause(st):
         significant = t.p_value < STRUCTURE_ALPHA
         large = t.predictable_rms > t.floor
         predicted = significant and large
-        floor = (f'floor {t.floor * k:.3g} {unit}: the larger of {STRUCTURE_NOISE_SHARE:g} x '
-                 f'the noise {t.noise_rms * k:.3g} {unit} and {100 * STRUCTURE_FLOOR:g} % of '
-                 f'the swing {t.swing * k:.3g} {unit}')
+        share = '' if STRUCTURE_NOISE_SHARE == 1.0 else f'{STRUCTURE_NOISE_SHARE:g} x '
+        floor = (f'floor {t.floor * k:.3g} {unit} (the larger of {share}the noise '
+                 f'{t.noise_rms * k:.3g} {unit} and {100 * STRUCTURE_FLOOR:g} % of the '
+                 f'{_num(t.swing * k)} {unit} swing, {STRUCTURE_FLOOR * t.swing * k:.3g} {unit})')
         if not significant:
             head = (f'{st.channel}: the inputs predict nothing significant in the residual '
                     f'(F-test p={t.p_value:.2g} >= {_alpha()})')
@@ -65,7 +71,8 @@ def channel_clause(st):
     if t.wander_rms > limit:
         return (f'{head}{", but" if not predicted else ", and"} {t.wander_rms * k:.3g} {unit} '
                 f'that neither the inputs nor an offset and a drift describe exceeds '
-                f'{100 * MAX_NOISE_SHARE:g} % of the swing ({limit * k:.3g} {unit})')
+                f'{100 * MAX_NOISE_SHARE:g} % of the {_num(t.swing * k)} {unit} swing '
+                f'({limit * k:.3g} {unit})')
     return head
 
 
