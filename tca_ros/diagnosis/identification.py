@@ -14,9 +14,9 @@ from tca_ros.diagnosis.data import DataError, record_config
 from tca_ros.diagnosis.holdout import AUTO, choose_validation, DEFAULT_VALIDATION
 from tca_ros.diagnosis.joint import beats_nominal, family_rival_notes, joint_extension, \
     JOINT_NFEV, joint_notes
-from tca_ros.diagnosis.parameter_names import NOMINAL_NAMES
 from tca_ros.diagnosis.nominal import calibrate_training_part, candidates_of, DiagnosisError, \
     nominal_with_fallback, read_any, record_nominal
+from tca_ros.diagnosis.parameter_names import NOMINAL_NAMES
 from tca_ros.diagnosis.progress import Progress
 from tca_ros.diagnosis.search import MIN_GAIN_PERCENT, search_effects
 from tca_ros.diagnosis.verdict import channel_stats, decide_verdict, gain, holds_one_load, \

@@ -126,7 +126,7 @@ def _derived_lines(cal):
     tau, rise = derived['thermal_time_constant'], derived['steady_rise']
     t_ratio, r_ratio = tau.value / tau.prior, rise.value / rise.prior
     line = (f'  derived: thermal time constant {tau.value:.3g} s ({t_ratio:.2f} x the '
-            f'description\'s), steady rise {rise.value:.3g} K/W ({r_ratio:.2f} x)')
+            f'description), steady rise {rise.value:.3g} K/W ({r_ratio:.2f} x)')
     if r_ratio < 1.0:
         line += (f'; a power loss of {100 * (1.0 - r_ratio):.0f} % (power_loss) would lower '
                  'the rise so and leave the time constant as described')

@@ -99,11 +99,11 @@ def verdict_sentence(verdict, effects, stats, whole_stats=None):
             return ('the nominal model leaves no structured channel in the held-out residual '
                     f'({held})')
         return ('the nominal model leaves no structured channel in the held-out residual or '
-                f'in the whole record\'s (held-out part: {held}; whole record: '
+                f'in that of the whole record (held-out part: {held}; whole record: '
                 f'{channels_text(whole_stats)})')
     if whole_stats is not None and not any(st.structured for st in stats.values()):
         structured = [st.channel for st in whole_stats.values() if st.structured]
-        return (f'unexplained structure remains in the whole record\'s residual of '
+        return ('unexplained structure remains in the residual of the whole record in '
                 f'{", ".join(structured)} though not in the held-out part alone, and no '
                 f'candidate improves the held-out fit (whole record: '
                 f'{channels_text(whole_stats)}; held-out part: {held})')
