@@ -100,3 +100,15 @@ def test_a_diagnosis_names_its_calibration_as_calibrate_does(tmp_path):
     text = (report / 'report.md').read_text()
     assert "(from the record's '# tca:' header)" in text and '## Nominal parameters' in text
     assert 'heat_capacity' in text and '- `fiber.specific_heat` =' not in text
+
+
+def test_the_derived_steady_rise_says_the_power_loss_it_amounts_to():
+    def cal(rise):
+        derived = {'thermal_time_constant': types.SimpleNamespace(value=3.02, prior=3.0),
+                   'steady_rise': types.SimpleNamespace(value=rise, prior=75.0)}
+        return types.SimpleNamespace(plausibility=lambda: [], derived=lambda: derived)
+    line, = plausibility_lines(cal(61.5))  # the example's: 18.3 % of the power lost
+    assert 'steady rise 61.5 K/W (0.82 x)' in line and 'a power loss of 18 %' in line
+    assert 'thermal time constant 3.02 s (1.01 x the description)' in line
+    line, = plausibility_lines(cal(80.0))  # a higher rise: no power loss can do that
+    assert 'power loss' not in line
