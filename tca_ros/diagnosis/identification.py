@@ -16,6 +16,7 @@ from tca_ros.diagnosis.joint import beats_nominal, family_rival_notes, joint_ext
     JOINT_NFEV, joint_notes
 from tca_ros.diagnosis.nominal import calibrate_training_part, candidates_of, DiagnosisError, \
     nominal_with_fallback, read_any, record_nominal
+from tca_ros.diagnosis.parameter_names import NOMINAL_NAMES
 from tca_ros.diagnosis.progress import Progress
 from tca_ros.diagnosis.search import MIN_GAIN_PERCENT, search_effects
 from tca_ros.diagnosis.verdict import channel_stats, decide_verdict, gain, holds_one_load, \
@@ -61,6 +62,19 @@ class DiagnosisResult:
     records: list = field(default_factory=list)  # paths diagnosed together
     heldout_spans: list = field(default_factory=list)  # [(start, end)] s held out (1st record)
     validation: str = DEFAULT_VALIDATION  # layout of the held-out part (holdout.py)
+    config_from_header: bool = False  # config named by the record's '# tca:' header
+    calibrated_file: str = None  # params file of `tca_sim calibrate` taken as the nominal
+    #: {calibration name: (value, unit)} of the calibrated params file, else empty
+    calibrated_values: dict = field(default_factory=dict)
+
+    @property
+    def muscle(self):
+        """Return how the outputs name the muscle: its params file, and where it came from."""
+        origin = " (from the record's '# tca:' header)" if self.config_from_header else ''
+        text = f'config {self.config}{origin}'
+        if self.calibrated_file:
+            text += f', nominal parameters from {self.calibrated_file}'
+        return text
 
     @property
     def success(self):
@@ -161,6 +175,7 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
     from tca_ros.diagnosis import fitting
     from tca_ros.model.static_maps import clear_map_cache
     start = wallclock.perf_counter()
+    from_header = config is None
     clear_map_cache()  # identical inputs give identical numbers (the maps grow on demand)
     paths, records, config, model, base = _read(data_path, config, calibrated, model)
     record = records[0]
@@ -192,8 +207,9 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
     candidates, absorbed = absorbed_candidates(
         candidates_of(records, params, model, problems, nominals), problem.recalibration)
     if absorbed:
-        notes.append(f'not searched: {", ".join(absorbed)} (the calibrated '
-                     f'{", ".join(ABSORBED[a] for a in absorbed)} is the same parameter)')
+        notes.append(f'not searched: {", ".join(absorbed)} (the refitted '
+                     f'{", ".join(NOMINAL_NAMES[ABSORBED[a]][0] for a in absorbed)} is the '
+                     'same parameter)')
     nominal = _Nominal(problems, problem, start_values, nominals, cal, candidates)
     try:
         effects, values, extendeds, rounds = _search(nominal, notes)
@@ -228,12 +244,23 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
         heldout_spans=[(float(record.time[a]), float(record.time[b - 1]))
                        for a, b in problems[0].full_runs], validation=validation,
         verdict=verdict, explanation=explanation, elapsed=0.0,
-        n_simulations=bar.count, untestable=[c.name for c in candidates if not c.starts])
+        n_simulations=bar.count, untestable=[c.name for c in candidates if not c.starts],
+        config_from_header=from_header, calibrated_file=calibrated,
+        calibrated_values=_file_values(calibrated, params, config, model))
     result.elapsed = wallclock.perf_counter() - start
     if report_dir:
         from tca_ros.diagnosis.report import write_report
         write_report(result, report_dir)
     return result
+
+
+def _file_values(calibrated, params, config, model):
+    """Return {calibration name: (value, unit)} of a calibrated params file, or {}."""
+    if not calibrated:
+        return {}
+    from tca_ros.diagnosis.parameter_names import calibrated_values
+    from tca_ros.model.params import load_params
+    return calibrated_values(params, load_params(config, model=model))
 
 
 def _read(data_path, config, calibrated, model):

@@ -10,7 +10,9 @@ import os
 import numpy as np
 
 from tca_ros.diagnosis import plots
-from tca_ros.diagnosis.summary import heldout_text
+from tca_ros.diagnosis.parameter_names import nominal_value
+from tca_ros.diagnosis.physical_priors import SHIFT_Z
+from tca_ros.diagnosis.summary import heldout_text, nominal_lines
 from tca_ros.diagnosis.verdict import gain
 from tca_ros.model.params import dump_params, muscle_at_rest
 
@@ -125,7 +127,18 @@ def _stats_table(result):
     return lines
 
 
-def _candidate_table(scores, base_rmse):
+def _param_cell(name, value, stderr, unit, nominal):
+    """Return 'name = value +- stderr unit'; a nominal entry by its calibration name."""
+    named = nominal_value(name, value, nominal)
+    if named is None:
+        return f'{name.split(".", 1)[1]} = {_fmt(value)} +- {_fmt(stderr)} {unit}'
+    label, v, unit = named
+    scale = v / value if value else 1.0
+    err = None if stderr is None else stderr * scale
+    return f'{label} = {_fmt(v)} +- {_fmt(err)} {unit}'
+
+
+def _candidate_table(scores, base_rmse, nominal):
     has_t = 'temperature' in base_rmse
     head = '| rank | effect | fitted parameters (+- stderr) | held-out RMSE displacement | gain |'
     rule = '|---|---|---|---|---|'
@@ -136,8 +149,8 @@ def _candidate_table(scores, base_rmse):
     rule += '---|---|---|'
     lines = [head, rule]
     for i, s in enumerate(scores, start=1):
-        params = '; '.join(f'{k.split(".", 1)[1]} = {_fmt(v)} +- {_fmt(s.fit.stderr.get(k))} '
-                           f'{s.fit.units[k]}' for k, v in s.fit.params.items())
+        params = '; '.join(_param_cell(k, v, s.fit.stderr.get(k), s.fit.units[k], nominal)
+                           for k, v in s.fit.params.items())
         row = (f'| {i} | {s.name} | {params} | {s.heldout_rmse["displacement"] * 1e6:.2f} um | '
                f'{gain(base_rmse["displacement"], s.heldout_rmse["displacement"]):+.1f} % |')
         if has_t:
@@ -157,7 +170,7 @@ def write_markdown(result, report_dir, figures):
         '# TCA diagnosis report', '',
         f'- data: `{r.source}` ({r.duration:.1f} s at {r.sample_rate:.4g} Hz, '
         f'{r.time.size} samples; measured: {", ".join(result.nominal_rmse)})',
-        f'- nominal config: `{result.config}`, moving mass {r.mass * 1e3:.2f} g, '
+        f'- muscle: {_muscle_md(result)}, moving mass {r.mass * 1e3:.2f} g, '
         f'kinetostatic model `{result.model}`',
         f'- {heldout_text(result)}',
         '- sensor noise from robust second differences: ' + ', '.join(
@@ -174,7 +187,13 @@ def write_markdown(result, report_dir, figures):
                      f'{result.channel_gain(c):+.1f} % |')
     if result.extended_values:
         lines += ['', 'Extended parameters (`extended_params.yaml`):', '']
-        lines += [f'- `{k}` = {_fmt(v, 5)}' for k, v in result.extended_values.items()]
+        lines += [_value_item(k, v, result.params) for k, v in result.extended_values.items()]
+    if result.calibration is not None or result.calibrated_values:
+        lines += ['', '## Nominal parameters', '',
+                  'Named and valued as `tca_sim calibrate` prints them (start: the '
+                  'description; z: the shift in prior spreads; a shift beyond '
+                  f'{SHIFT_Z:g} spreads is a finding).', '', '```text',
+                  *nominal_lines(result), '```']
     lines += ['', '![measured vs nominal vs extended](fit.png)', '',
               '## Candidates', '',
               'Each candidate fitted alone on the training part, scored on the held-out part '
@@ -185,7 +204,8 @@ def write_markdown(result, report_dir, figures):
               'least 1 %.',
               '']
     if result.rounds:
-        lines += _candidate_table(result.rounds[0].scores, result.rounds[0].base_rmse)
+        lines += _candidate_table(result.rounds[0].scores, result.rounds[0].base_rmse,
+                                  result.params)
     if result.untestable:
         lines += ['', 'Not testable in this record: ' + ', '.join(result.untestable)
                   + ' (coil contact: no stop angle between the nominal alpha_min and alpha* '
@@ -198,7 +218,7 @@ def write_markdown(result, report_dir, figures):
     for rnd in result.rounds[1:]:
         lines += ['', f'### Round {len(rnd.base_effects) + 1}: base = nominal + '
                   f'{" + ".join(rnd.base_effects)}', '']
-        lines += _candidate_table(rnd.scores, rnd.base_rmse)
+        lines += _candidate_table(rnd.scores, rnd.base_rmse, result.params)
     if 'ranking.png' in figures:
         lines += ['', '![candidate ranking](ranking.png)']
     lines += ['', '## Residual diagnostics (held-out part)', '',
@@ -224,6 +244,25 @@ def write_markdown(result, report_dir, figures):
     return path
 
 
+def _muscle_md(result):
+    """Return the muscle's config (and calibrated file) in markdown."""
+    text = f'config `{result.config}`'
+    if result.config_from_header:
+        text += " (from the record's '# tca:' header)"
+    if result.calibrated_file:
+        text += f', nominal parameters from `{result.calibrated_file}`'
+    return text
+
+
+def _value_item(name, value, nominal):
+    """Return a list item of an extended value: calibration name and params-file entry."""
+    named = nominal_value(name, value, nominal)
+    if named is None:
+        return f'- `{name}` = {_fmt(value, 5)}'
+    label, v, unit = named
+    return f'- `{label}` = {_fmt(v, 4)} {unit} (`{name}` = {_fmt(value, 5)})'.replace(' - (', ' (')
+
+
 def _json_safe(value):
     if isinstance(value, dict):
         return {k: _json_safe(v) for k, v in value.items()}
@@ -239,7 +278,7 @@ def write_report(result, report_dir):
     os.makedirs(report_dir, exist_ok=True)
     params_path = os.path.join(report_dir, 'extended_params.yaml')
     header = (f'Extended params written by tca_sim diagnose from {result.record.source}\n'
-              f'nominal config {result.config}; effects found: '
+              f'{result.muscle}; effects found: '
               f'{", ".join(result.effects) or "none"}; verdict {result.verdict}\n'
               f'effect parameters fitted with model={result.model}; dynamics.mass and '
               'dynamics.load taken from the record')

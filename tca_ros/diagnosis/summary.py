@@ -1,10 +1,15 @@
 """The one-screen stdout summary of a diagnosis (DiagnosisResult of identification.py)."""
 import os
 
+from tca_ros.diagnosis.parameter_names import format_nominal, plausibility_lines
 from tca_ros.diagnosis.verdict import gain
 
 
-def _format_value(name, value):
+def _format_value(name, value, params=None):
+    """Return 'name=value unit': a nominal entry by its calibration name, an effect's dotted."""
+    nominal = format_nominal(name, value, params) if params is not None else None
+    if nominal:
+        return nominal
     unit = {'effects.creep_compliance': ('mm/N', 1e3), 'effects.extra_softening':
             ('MPa/K', 1e-6)}.get(name)
     short = name.split('.', 1)[1]
@@ -12,6 +17,23 @@ def _format_value(name, value):
         return f'{short}={value * unit[1]:.3g} {unit[0]}'
     from tca_ros.model.params import SPECS
     return f'{short}={value:.3g} {SPECS[name].unit}'.rstrip(' -')
+
+
+def nominal_lines(result):
+    """Return the lines of the nominal parameters, named and valued as `tca_sim calibrate` does.
+
+    From the calibration of the training part (value, start, z in prior spreads,
+    findings where a value left its description), or the calibrated params file.
+    """
+    if result.calibration is not None:
+        return (['nominal parameters calibrated on the training part (as `tca_sim calibrate` '
+                 'names them; start: the description; z in prior spreads):']
+                + plausibility_lines(result.calibration))
+    if result.calibrated_values:
+        return [f'nominal parameters from {result.calibrated_file}: ' + ', '.join(
+            f'{k} {v:.4g} {unit}'.rstrip(' -') for k, (v, unit) in
+            result.calibrated_values.items())]
+    return []
 
 
 def heldout_text(result):
@@ -34,16 +56,17 @@ def format_summary(result):
         *([f'  with {len(result.records) - 1} more record(s) of the same muscle: '
            + ', '.join(os.path.basename(p) for p in result.records[1:])]
           if len(result.records) > 1 else []),
-        f'config {result.config} (mass {r.mass * 1e3:.1f} g), model {result.model}; '
+        f'{result.muscle}; mass {r.mass * 1e3:.1f} g, model {result.model}; '
         f'{heldout_text(result)}',
         'sensor noise (2nd differences): ' + ', '.join(
             f'{c} {_format_rmse(c, s).strip()}' for c, s in result.sigma.items()),
+        *nominal_lines(result),
         '',
         'candidates, each alone vs nominal (held-out RMSE; gain; penalised test):',
     ]
     base = result.rounds[0].base_rmse if result.rounds else result.nominal_rmse
     for i, s in enumerate(result.candidates, start=1):
-        params = ', '.join(_format_value(k, v) for k, v in s.fit.params.items())
+        params = ', '.join(_format_value(k, v, result.params) for k, v in s.fit.params.items())
         temp = (f'{_format_rmse("temperature", s.heldout_rmse["temperature"])}'
                 if 'temperature' in s.heldout_rmse else '')
         mark = 'significant' if s.significant else ('' if s.refined else 'screened')
@@ -74,7 +97,7 @@ def format_summary(result):
     refit = {k: v for k, v in result.extended_values.items() if not _is_effect(k)}
     if refit and (result.effects or result.helpful):
         lines.append('  nominal parameters refitted with them: '
-                     + '; '.join(_format_value(k, v) for k, v in refit.items()))
+                     + '; '.join(_format_value(k, v, result.params) for k, v in refit.items()))
     if result.helpful:
         lines.append('improve the fit but leave structure (not a cause): '
                      + ', '.join(result.helpful))

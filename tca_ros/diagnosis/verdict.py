@@ -12,6 +12,7 @@ import numpy as np
 from tca_ros.diagnosis.noise import heldout_deviance_gain, structure_test
 from tca_ros.diagnosis.regressors import input_terms_in_runs
 from tca_ros.diagnosis.residuals import residual_stats
+from tca_ros.diagnosis.verdict_text import verdict_sentence
 from tca_ros.model.thermal import thermal_time_constant
 
 UNITS = {'displacement': 'm', 'temperature': 'K'}
@@ -111,21 +112,6 @@ def needs_explaining(*stats):
     return [st.channel for part in stats for st in part.values() if st.structured]
 
 
-def _structure_summary(stats):
-    """Return 'channel: predictable X of floor Y (p=...)' for each channel."""
-    parts = []
-    for st in stats.values():
-        t = st.structure
-        if t is None:
-            parts.append(f'{st.channel} RMS/sigma {st.ratio:.2f}')
-            continue
-        scale, unit = (1e6, 'um') if st.unit == 'm' else (1.0, st.unit)
-        parts.append(f'{st.channel}: input-predictable {t.predictable_rms * scale:.3g} {unit} '
-                     f'(floor {t.floor * scale:.3g} {unit}, p={t.p_value:.2g}), '
-                     f'noise {t.noise_rms * scale:.3g} {unit}')
-    return '; '.join(parts)
-
-
 def decide_verdict(effects, nominal_stats, extended_stats, nominal_whole_stats=None):
     """Return (verdict, one-sentence explanation) from the residual structure.
 
@@ -136,29 +122,19 @@ def decide_verdict(effects, nominal_stats, extended_stats, nominal_whole_stats=N
     is given, on the whole record (the reason a search ran: the training part
     can show what the held-out part's test does not resolve); 'explained':
     effects added and no channel structured; 'unexplained': structure remains.
+    The sentence names, per channel, the statistics that decided and their
+    thresholds (verdict_text.py).
     """
     stats = extended_stats if effects else nominal_stats
     structured = [st.channel for st in stats.values() if st.structured]
-    summary = _structure_summary(stats)
     whole = [] if effects or not nominal_whole_stats else \
         [st.channel for st in nominal_whole_stats.values() if st.structured]
-    if not structured and whole:
-        return 'unexplained', (
-            'the inputs predict the residual of the whole record in '
-            f'{", ".join(whole)} ({_structure_summary(nominal_whole_stats)}), though not of '
-            f'the held-out part alone ({summary}), and no candidate improves the held-out fit')
-    if not structured:
-        if effects:
-            return 'explained', (f'what remains after adding {" + ".join(effects)} does not '
-                                 f'depend on the inputs ({summary})')
-        return 'adequate', ('no candidate improves the held-out fit significantly and what '
-                            f'remains does not depend on the inputs ({summary})')
-    what = ('after adding ' + ' + '.join(effects)) if effects else 'and no candidate helps'
-    caution = ('; the effects added improve the fit but do not explain the data, so do not '
-               'read them as its cause') if effects else ''
-    return 'unexplained', (f'unexplained structure remains {what}: the inputs still predict '
-                           f'the held-out residual of {", ".join(structured)} ({summary})'
-                           f'{caution}')
+    if structured or whole:
+        verdict = 'unexplained'
+    else:
+        verdict = 'explained' if effects else 'adequate'
+    whole_stats = None if effects else nominal_whole_stats
+    return verdict, verdict_sentence(verdict, effects, stats, whole_stats)
 
 
 def heldout_gain_over(problems, base_sims, sims, added_params):

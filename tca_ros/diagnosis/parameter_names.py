@@ -1,0 +1,133 @@
+"""One name per nominal parameter: the calibration's, in calibrate's and diagnose's outputs.
+
+The diagnosis refits some nominal parameters as params-file entries
+(candidates.RECALIBRATION); its outputs print them under the names and in the
+units `tca_sim calibrate` prints (calibration.py's table), so that the same
+quantity reads the same in both:
+
+=============================== =========================== =====================
+params-file entry               calibration name            value
+=============================== =========================== =====================
+fiber.untwist_gain              actuation_gain (-)          the same
+thermal.delivered_power_ratio   delivered_power_ratio (-)   the same
+dynamics.damping                damping (N s/m)             the same
+fiber.specific_heat (J/(kg K))  heat_capacity (J/K)         m_t c_p: x fibre mass
+=============================== =========================== =====================
+
+Catalogue effects keep their dotted ``effects.*`` names. The module also says
+which catalogue effects a calibrated parameter that left its description can
+stand for (issue 25: what calibration absorbs is a finding).
+"""
+from tca_ros.model.thermal import fiber_mass, heat_capacity, thermal_conductance
+
+#: params-file entry -> (calibration name, unit); the value converts by :func:`nominal_value`
+NOMINAL_NAMES = {
+    'fiber.untwist_gain': ('actuation_gain', '-'),
+    'thermal.delivered_power_ratio': ('delivered_power_ratio', '-'),
+    'dynamics.damping': ('damping', 'N s/m'),
+    'fiber.specific_heat': ('heat_capacity', 'J/K'),
+}
+#: calibration name -> what a shift of it beyond its prior can stand for (catalogue
+#: effects, and the pattern that points to each)
+STANDS_FOR = {
+    'delivered_power_ratio': 'power_loss',
+    'heat_loss': ('power_loss (a lower steady rise, tau unchanged: heat_capacity moves with '
+                  'it), or radiation / nonlinear_convection (tau changes too)'),
+    'heat_capacity': ('power_loss (with heat_loss, tau unchanged), or a slower thermal '
+                      'response: second_thermal_lag, sensor_lag'),
+    'actuation_gain': 'modulus_softening (a gain that follows the temperature)',
+    'stiffness_scale': 'modulus_softening or creep (a stiffness change)',
+    'damping': 'a slower response: sensor_lag, dead_time, friction or hysteresis',
+    'actuation_lag': 'a slower response: second_thermal_lag, sensor_lag or hysteresis',
+    'expansion_zero_temperature': ('a different curvature of the stroke-temperature '
+                                   'characteristic: modulus_softening or hysteresis'),
+}
+
+
+def nominal_value(name, value, params):
+    """Return (calibration name, value, unit) of a params-file entry, or None for others.
+
+    ``params``: the TcaParams whose fibre gives the mass m_t (kg) that turns a
+    specific heat (J/(kg K)) into the heat capacity m_t c_p (J/K).
+    """
+    if name not in NOMINAL_NAMES:
+        return None
+    label, unit = NOMINAL_NAMES[name]
+    if name == 'fiber.specific_heat':
+        value = value * fiber_mass(params.fiber)
+    return label, float(value), unit
+
+
+def format_nominal(name, value, params, sep='='):
+    """Return 'actuation_gain=3.25' for a nominal entry, None for an effect's parameter."""
+    named = nominal_value(name, value, params)
+    if named is None:
+        return None
+    label, v, unit = named
+    return f'{label}{sep}{v:.4g} {unit}'.rstrip(' -')
+
+
+def calibrated_values(params, reference):
+    """Return {calibration name: (value, unit)} of a params file, as calibrate wrote it.
+
+    ``reference``: the description the stiffness scale is relative to (the
+    config the calibration started from).
+    """
+    from tca_ros.diagnosis.calibration_parameters import expansion_zero
+    moduli = reference.moduli.youngs_modulus
+    out = {
+        'heat_capacity': (heat_capacity(params.fiber), 'J/K'),
+        'heat_loss': (thermal_conductance(params.fiber, params.thermal), 'W/K'),
+        'actuation_gain': (params.fiber.untwist_gain, '-'),
+        'stiffness_scale': (params.moduli.youngs_modulus / moduli if moduli > 0.0 else 1.0,
+                            '-'),
+        'damping': (params.dynamics.damping, 'N s/m'),
+        'delivered_power_ratio': (params.thermal.delivered_power_ratio, '-'),
+        'actuation_lag': (params.effects.second_thermal_lag, 's'),
+        'expansion_zero_temperature': (expansion_zero(params.fiber), 'degC'),
+    }
+    return {k: (float(v), unit) for k, (v, unit) in out.items()}
+
+
+def plausibility_lines(cal):
+    """Return the summary lines of a Calibration's values: value, start, z, flags, findings.
+
+    Names and values as `tca_sim calibrate` prints them; a value beyond
+    physical_priors.SHIFT_Z prior spreads is a finding, said with the catalogue
+    effects it can stand for (STANDS_FOR).
+    """
+    rows = cal.plausibility()
+    lines = []
+    for row in rows:
+        ratio = f', {row.ratio:.2f} x physical' if row.ratio == row.ratio else ''
+        flag = ' IMPLAUSIBLE' if row.implausible else ' SHIFTED' if row.shifted else ''
+        lines.append(f'  {row.name:<28s}{row.value:>11.4g} {row.unit:<6s}(start '
+                     f'{row.prior:.4g}, z {row.z:+.1f}{ratio}){flag}')
+    lines += _derived_lines(cal)
+    for row in rows:
+        if row.shifted or row.implausible:
+            why = STANDS_FOR.get(row.name, 'a cause outside the catalogue')
+            lines.append(f'finding: {row.name} moved {row.z:+.1f} prior spreads from the '
+                         f'description ({row.prior:.4g} -> {row.value:.4g} {row.unit}'
+                         f'{", implausible" if row.implausible else ""}): the muscle differs '
+                         f'there, or the calibration absorbed an effect: {why}')
+    return lines
+
+
+def _derived_lines(cal):
+    """Return the line of eq. (1)'s time constant and steady rise against the description's.
+
+    A steady rise below the description's at an unchanged time constant is
+    what a power loss does: the line says the fraction it would be.
+    """
+    derived = cal.derived()
+    if not derived:
+        return []
+    tau, rise = derived['thermal_time_constant'], derived['steady_rise']
+    t_ratio, r_ratio = tau.value / tau.prior, rise.value / rise.prior
+    line = (f'  derived: thermal time constant {tau.value:.3g} s ({t_ratio:.2f} x the '
+            f'description), steady rise {rise.value:.3g} K/W ({r_ratio:.2f} x)')
+    if r_ratio < 1.0:
+        line += (f'; a power loss of {100 * (1.0 - r_ratio):.0f} % (power_loss) would lower '
+                 'the rise so and leave the time constant as described')
+    return [line]

@@ -1,0 +1,115 @@
+"""The verdict's sentence: what decided each channel, in the numbers that decided it.
+
+A channel's residual is structured (noise.StructureTest.structured) when
+
+- the inputs predict part of it: the F-test of the input-driven terms has
+  p < STRUCTURE_ALPHA **and** the predictable part's RMS exceeds the floor
+  (the larger of STRUCTURE_NOISE_SHARE x the noise and STRUCTURE_FLOOR x the
+  measured swing), or
+- what neither the inputs nor an offset and a drift describe (the wander)
+  exceeds MAX_NOISE_SHARE of the swing;
+
+without that test, when its RMS exceeds STRUCTURE_RATIO white-noise sigmas.
+Each channel's clause names the criterion that decided it with its statistic
+and threshold, so the sentence cannot say "structured" beside a p-value that
+says otherwise.
+"""
+from tca_ros.diagnosis.noise import MAX_NOISE_SHARE, STRUCTURE_ALPHA, STRUCTURE_FLOOR, \
+    STRUCTURE_NOISE_SHARE
+from tca_ros.diagnosis.residuals import STRUCTURE_RATIO
+
+MIN_TEST_SAMPLES = 12  # block means the structure test needs (noise.structure_test)
+
+
+def _scale(unit):
+    """Return (factor, printed unit) of a channel unit: m prints as um."""
+    return (1e6, 'um') if unit == 'm' else (1.0, unit)
+
+
+def _num(value):
+    """Return a swing for print: whole units from 1000 up, else 3 significant digits."""
+    return f'{value:.0f}' if abs(value) >= 1e3 else f'{value:.3g}'
+
+
+def _alpha():
+    return f'{STRUCTURE_ALPHA:g}'
+
+
+def channel_clause(st):
+    """Return one clause saying why ``st`` (ResidualStats) is or is not structured.
+
+    The clause carries the statistics the decision compared, each beside its
+    threshold: 'displacement: the inputs predict 135 um of the residual (F-test
+    p=1.3e-188 < 0.001), above its floor 58.8 um (...)'.
+    """
+    t = st.structure
+    if t is None:
+        side = 'above' if st.structured else 'within'
+        return (f'{st.channel}: residual RMS {st.ratio:.2f} x the sensor noise, {side} the '
+                f'limit {STRUCTURE_RATIO:g}')
+    k, unit = _scale(st.unit)
+    if t.n < MIN_TEST_SAMPLES:
+        head = f'{st.channel}: too few samples to test ({t.n} block means)'
+        predicted = False
+    else:
+        significant = t.p_value < STRUCTURE_ALPHA
+        large = t.predictable_rms > t.floor
+        predicted = significant and large
+        share = '' if STRUCTURE_NOISE_SHARE == 1.0 else f'{STRUCTURE_NOISE_SHARE:g} x '
+        floor = (f'floor {t.floor * k:.3g} {unit} (the larger of {share}the noise '
+                 f'{t.noise_rms * k:.3g} {unit} and {100 * STRUCTURE_FLOOR:g} % of the '
+                 f'{_num(t.swing * k)} {unit} swing, {STRUCTURE_FLOOR * t.swing * k:.3g} {unit})')
+        if not significant:
+            head = (f'{st.channel}: the inputs predict nothing significant in the residual '
+                    f'(F-test p={t.p_value:.2g} >= {_alpha()})')
+        else:
+            side = 'above' if large else 'within'
+            head = (f'{st.channel}: the inputs predict {t.predictable_rms * k:.3g} {unit} of '
+                    f'the residual (F-test p={t.p_value:.2g} < {_alpha()}), {side} its '
+                    f'{floor}')
+    limit = MAX_NOISE_SHARE * t.swing
+    if t.wander_rms > limit:
+        return (f'{head}{", but" if not predicted else ", and"} {t.wander_rms * k:.3g} {unit} '
+                f'that neither the inputs nor an offset and a drift describe exceeds '
+                f'{100 * MAX_NOISE_SHARE:g} % of the {_num(t.swing * k)} {unit} swing '
+                f'({limit * k:.3g} {unit})')
+    return head
+
+
+def channels_text(stats):
+    """Return the clauses of {channel: ResidualStats} joined into one list (';')."""
+    return '; '.join(channel_clause(st) for st in stats.values())
+
+
+def verdict_sentence(verdict, effects, stats, whole_stats=None):
+    """Return the one-sentence explanation of ``verdict`` from the stats that decided it.
+
+    ``stats``: {channel: ResidualStats} of the held-out part (the extended
+    model's when ``effects`` were added, else the nominal's); ``whole_stats``:
+    the nominal model's on the whole record, when they decided (held-out part
+    unstructured, whole record structured).
+    """
+    added = ' + '.join(effects)
+    held = channels_text(stats)
+    if verdict == 'explained':
+        return (f'after adding {added}, no channel of the held-out residual is structured '
+                f'({held})')
+    if verdict == 'adequate':
+        if not whole_stats:
+            return ('the nominal model leaves no structured channel in the held-out residual '
+                    f'({held})')
+        return ('the nominal model leaves no structured channel in the held-out residual or '
+                f'in that of the whole record (held-out part: {held}; whole record: '
+                f'{channels_text(whole_stats)})')
+    if whole_stats is not None and not any(st.structured for st in stats.values()):
+        structured = [st.channel for st in whole_stats.values() if st.structured]
+        return ('unexplained structure remains in the residual of the whole record in '
+                f'{", ".join(structured)} though not in the held-out part alone, and no '
+                f'candidate improves the held-out fit (whole record: '
+                f'{channels_text(whole_stats)}; held-out part: {held})')
+    structured = [st.channel for st in stats.values() if st.structured]
+    what = f'after adding {added}' if effects else 'and no candidate helps'
+    caution = ('; the effects added improve the fit but do not explain the data, so do not '
+               'read them as its cause') if effects else ''
+    return (f'unexplained structure remains {what}: the held-out residual of '
+            f'{", ".join(structured)} is structured ({held}){caution}')

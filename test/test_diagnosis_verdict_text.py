@@ -1,0 +1,111 @@
+"""The verdict's sentence agrees with the statistics it prints (issue 25, item 5)."""
+import itertools
+import re
+
+import pytest
+
+from tca_ros.diagnosis.noise import MAX_NOISE_SHARE, STRUCTURE_ALPHA, StructureTest
+from tca_ros.diagnosis.residuals import ResidualStats
+from tca_ros.diagnosis.verdict import decide_verdict
+from tca_ros.diagnosis.verdict_text import channel_clause
+
+SWING = 1e-3  # m, measured displacement swing
+FLOOR = 20e-6  # m
+
+
+def _stats(p, predictable, wander=0.0, channel='displacement', unit='m', n=200):
+    test = StructureTest(p_value=p, predictable_rms=predictable, noise_rms=FLOOR,
+                         floor=FLOOR, ar_order=1, n=n, swing=SWING, wander_rms=wander)
+    return {channel: ResidualStats(channel, unit, 1e-5, 1e-5, 1.0, 0.0, 0.0, 0.0, 0.5, 0.5,
+                                   0.1, 0.0, 0.0, 0.0, structure=test)}
+
+
+#: synthetic statistics on both sides of each threshold: the F-test's p against
+#: STRUCTURE_ALPHA, the predictable part against its floor, the wander against
+#: MAX_NOISE_SHARE of the swing
+P_VALUES = (0.5 * STRUCTURE_ALPHA, 2.3e-05, 0.25, 2.0 * STRUCTURE_ALPHA)
+PREDICTABLE = (0.5 * FLOOR, 3.0 * FLOOR)
+WANDER = (0.0, 2.0 * MAX_NOISE_SHARE * SWING)
+GRID = list(itertools.product(P_VALUES, PREDICTABLE, WANDER))
+
+
+def _check_numbers(sentence):
+    """Assert every comparison the sentence states holds for the numbers it prints."""
+    checked = 0
+    for p, op, alpha in re.findall(r'p=([0-9.e+-]+) (<|>=) ([0-9.e+-]+)', sentence):
+        assert (float(p) < float(alpha)) == (op == '<'), sentence
+        checked += 1
+    for value, side, floor in re.findall(
+            r'predict ([0-9.e+-]+) um of the residual \(F-test [^)]*\), (above|within) its floor '
+            r'([0-9.e+-]+) um', sentence):
+        assert (float(value) > float(floor)) == (side == 'above'), sentence
+        checked += 1
+    for wander, limit in re.findall(r'([0-9.e+-]+) um that neither the inputs nor an offset '
+                                    r'and a drift describe exceeds [0-9.]+ % of the '
+                                    r'[0-9.e+]+ um swing \(([0-9.e+-]+) um\)', sentence):
+        assert float(wander) > float(limit), sentence
+        checked += 1
+    return checked
+
+
+@pytest.mark.parametrize('p,predictable,wander', GRID)
+def test_the_nominal_verdict_sentence_matches_its_statistics(p, predictable, wander):
+    stats = _stats(p, predictable, wander)
+    structured = (p < STRUCTURE_ALPHA and predictable > FLOOR) or wander > 0.0
+    verdict, sentence = decide_verdict([], stats, stats)
+    assert verdict == ('unexplained' if structured else 'adequate'), sentence
+    assert _check_numbers(sentence) >= 1
+    assert f'p={p:.2g}' in sentence
+    assert '. ' not in sentence and not sentence.endswith('.')  # one sentence
+    if structured:
+        assert 'structure remains' in sentence and 'displacement is structured' in sentence
+    else:
+        assert 'no structured channel' in sentence
+    # the two contradictions issue 25 quoted
+    if verdict == 'unexplained' and p >= STRUCTURE_ALPHA:
+        assert 'nothing significant' in sentence and 'exceeds' in sentence
+    if verdict == 'adequate' and p < STRUCTURE_ALPHA:
+        assert f'within its floor {FLOOR * 1e6:.3g} um' in sentence
+
+
+@pytest.mark.parametrize('p,predictable,wander', GRID)
+def test_the_extended_verdict_sentence_matches_its_statistics(p, predictable, wander):
+    nominal = _stats(1e-30, 10.0 * FLOOR)
+    extended = _stats(p, predictable, wander)
+    structured = (p < STRUCTURE_ALPHA and predictable > FLOOR) or wander > 0.0
+    verdict, sentence = decide_verdict(['creep'], nominal, extended, nominal)
+    assert verdict == ('unexplained' if structured else 'explained'), sentence
+    assert _check_numbers(sentence) >= 1
+    assert 'creep' in sentence and f'p={p:.2g}' in sentence
+    assert 'p=1e-30' not in sentence  # the nominal's statistics did not decide
+
+
+def test_whole_record_structure_decides_and_both_parts_are_quoted():
+    held = _stats(0.25, 0.5 * FLOOR)
+    whole = _stats(1e-6, 3.0 * FLOOR)
+    verdict, sentence = decide_verdict([], held, held, whole)
+    assert verdict == 'unexplained'
+    assert 'whole record' in sentence and 'p=1e-06 < 0.001' in sentence
+    assert 'p=0.25 >= 0.001' in sentence
+    assert _check_numbers(sentence) == 3
+    verdict, sentence = decide_verdict([], held, held, held)
+    assert verdict == 'adequate' and 'whole record' in sentence
+
+
+def test_a_channel_without_the_input_test_is_judged_by_its_noise_ratio():
+    from types import SimpleNamespace
+    for ratio, word in ((1.1, 'within'), (1.5, 'above')):
+        st = SimpleNamespace(channel='temperature', unit='K', ratio=ratio, structure=None,
+                             structured=ratio > 1.2)
+        assert f'{ratio:.2f} x the sensor noise, {word} the limit 1.2' in channel_clause(st)
+
+
+def test_two_channels_one_structured_say_which():
+    stats = {**_stats(1e-9, 3.0 * FLOOR),
+             **_stats(0.0019, 0.01, channel='temperature', unit='K')}
+    verdict, sentence = decide_verdict([], stats, stats)
+    assert verdict == 'unexplained'
+    assert 'residual of displacement is structured' in sentence
+    assert 'temperature: the inputs predict nothing significant in the residual ' \
+        '(F-test p=0.0019 >= 0.001)' in sentence
+    assert _check_numbers(sentence) == 3
