@@ -48,14 +48,16 @@ def test_nominal_entries_print_as_the_calibration_names_them():
 def test_a_shift_beyond_two_prior_spreads_is_a_finding_with_what_it_can_stand_for():
     def row(name, z):
         return Plausibility(name, 'W/K', 0.02, 0.0133, z, 0.0136, '', 0.004, 0.04, False)
-    cal = types.SimpleNamespace(plausibility=lambda: [row('heat_loss', 2.1),
-                                                      row('stiffness_scale', 1.9)],
-                                derived=lambda: {})
+    from tca_ros.diagnosis.physical_priors import stands_for
+    rows = [row('heat_loss', 2.1), row('stiffness_scale', 1.9)]
+    cal = types.SimpleNamespace(  # Calibration.findings: the shifted rows, tau moved
+        plausibility=lambda: rows, derived=lambda: {},
+        findings=lambda: [(r.name, r.z, stands_for(r.name, 1.5)) for r in rows if r.shifted])
     lines = plausibility_lines(cal)
     assert lines[0].rstrip().endswith('SHIFTED') and 'SHIFTED' not in lines[1]
     findings = [s for s in lines if s.startswith('finding:')]
     assert len(findings) == 1 and 'heat_loss moved +2.1 prior spreads' in findings[0]
-    assert 'power_loss' in findings[0] and 'radiation' in findings[0]
+    assert 'radiation' in findings[0] and 'nonlinear_convection' in findings[0]
 
 
 def test_calibrate_and_diagnose_print_one_name_and_value_per_parameter(tmp_path, capsys):
@@ -106,7 +108,8 @@ def test_the_derived_steady_rise_says_the_power_loss_it_amounts_to():
     def cal(rise):
         derived = {'thermal_time_constant': types.SimpleNamespace(value=3.02, prior=3.0),
                    'steady_rise': types.SimpleNamespace(value=rise, prior=75.0)}
-        return types.SimpleNamespace(plausibility=lambda: [], derived=lambda: derived)
+        return types.SimpleNamespace(plausibility=lambda: [], derived=lambda: derived,
+                                     findings=lambda: [])
     line, = plausibility_lines(cal(61.5))  # the example's: 18.3 % of the power lost
     assert 'steady rise 61.5 K/W (0.82 x)' in line and 'a power loss of 18 %' in line
     assert 'thermal time constant 3.02 s (1.01 x the description)' in line

@@ -27,21 +27,6 @@ NOMINAL_NAMES = {
     'dynamics.damping': ('damping', 'N s/m'),
     'fiber.specific_heat': ('heat_capacity', 'J/K'),
 }
-#: calibration name -> what a shift of it beyond its prior can stand for (catalogue
-#: effects, and the pattern that points to each)
-STANDS_FOR = {
-    'delivered_power_ratio': 'power_loss',
-    'heat_loss': ('power_loss (a lower steady rise, tau unchanged: heat_capacity moves with '
-                  'it), or radiation / nonlinear_convection (tau changes too)'),
-    'heat_capacity': ('power_loss (with heat_loss, tau unchanged), or a slower thermal '
-                      'response: second_thermal_lag, sensor_lag'),
-    'actuation_gain': 'modulus_softening (a gain that follows the temperature)',
-    'stiffness_scale': 'modulus_softening or creep (a stiffness change)',
-    'damping': 'a slower response: sensor_lag, dead_time, friction or hysteresis',
-    'actuation_lag': 'a slower response: second_thermal_lag, sensor_lag or hysteresis',
-    'expansion_zero_temperature': ('a different curvature of the stroke-temperature '
-                                   'characteristic: modulus_softening or hysteresis'),
-}
 
 
 def nominal_value(name, value, params):
@@ -94,7 +79,7 @@ def plausibility_lines(cal):
 
     Names and values as `tca_sim calibrate` prints them; a value beyond
     physical_priors.SHIFT_Z prior spreads is a finding, said with the catalogue
-    effects it can stand for (STANDS_FOR).
+    effects it can stand for (Calibration.findings, physical_priors.stands_for).
     """
     rows = cal.plausibility()
     lines = []
@@ -104,13 +89,17 @@ def plausibility_lines(cal):
         lines.append(f'  {row.name:<28s}{row.value:>11.4g} {row.unit:<6s}(start '
                      f'{row.prior:.4g}, z {row.z:+.1f}{ratio}){flag}')
     lines += _derived_lines(cal)
+    for name, z, effects in cal.findings():
+        row = next(r for r in rows if r.name == name)
+        why = ' or '.join(effects) if effects else 'a cause outside the catalogue'
+        lines.append(f'finding: {name} moved {z:+.1f} prior spreads from the description '
+                     f'({row.prior:.4g} -> {row.value:.4g} {row.unit}): the muscle differs '
+                     f'there, or the calibration absorbed an effect: {why}')
     for row in rows:
-        if row.shifted or row.implausible:
-            why = STANDS_FOR.get(row.name, 'a cause outside the catalogue')
-            lines.append(f'finding: {row.name} moved {row.z:+.1f} prior spreads from the '
-                         f'description ({row.prior:.4g} -> {row.value:.4g} {row.unit}'
-                         f'{", implausible" if row.implausible else ""}): the muscle differs '
-                         f'there, or the calibration absorbed an effect: {why}')
+        if row.implausible:
+            lines.append(f'finding: {row.name} is implausible ({row.value:.4g} {row.unit}, '
+                         f'{row.ratio:.2f} x the physical reference): the calibration stands '
+                         'in for physics the model lacks')
     return lines
 
 
