@@ -60,7 +60,9 @@ def test_a_warm_start_reads_zero_then_cools_below_it_in_both_simulators(model, e
 def test_at_rest_nothing_moves_and_a_voltage_drive_refuses_the_warm_start():
     p = _params()
     t, power, load = _profile()
-    assert np.ptp(simulate_quasistatic(p, t, 0.0 * power, load).displacement) == 0.0
+    # nothing moves: to round-off (a static map shared with earlier tests in the process
+    # spans a wider grid, whose spline reads 1.7e-18 m at ambient)
+    assert np.ptp(simulate_quasistatic(p, t, 0.0 * power, load).displacement) < 1e-15
     warm = _params(**{'thermal.initial_temperature_rise': 10.0})
     with pytest.raises(QuasiStaticUnsupported, match='initial_temperature_rise'):
         simulate_quasistatic(warm, t, power, load, supply='voltage')
