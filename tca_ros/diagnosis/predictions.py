@@ -67,11 +67,8 @@ def predictor(start, model, channels, supply='power', corrections=None):
             if plant is None:
                 plant = plants[key] = QuasiStaticPlant(in_environment(
                     params.with_values(**{'dynamics.mass': mass}), r, scales), model=model)
-            if is_isometric(r):
-                out.append(isometric_prediction(plant, r, channels))
-                continue
-            if rig_of(r) == 'spring':
-                out.append(spring_prediction(plant, r, channels))
+            if rig_of(r) in ('isometric', 'spring'):
+                out.append(rig_prediction(plant, r, channels))
                 continue
             sim = plant.simulate(r.time, r.power, r.load, supply=supply)
             pred = {c: getattr(sim, c) for c in channels if c != 'force'}
@@ -84,29 +81,20 @@ def predictor(start, model, channels, supply='power', corrections=None):
     return predict
 
 
-def isometric_prediction(plant, record, channels):
-    """Return {channel: array} of a clamped muscle's quasi-static record (force in N)."""
-    force, temperature = isometric_force(plant, record.time, record.power,
-                                         float(record.load[0]))
-    zero = np.zeros_like(record.time)
-    out = {'displacement': zero, 'force': force, 'temperature': temperature}
-    if 'resistance' in channels:
-        p = plant.params
-        out['resistance'] = resistance(temperature, zero, plant.loaded_length(
-            float(record.load[0])), p.electrical, p.thermal.ambient_temperature)
-    return {c: out[c] for c in channels}
-
-
-def spring_prediction(plant, record, channels):
-    """Return {channel: array} of a muscle on a series spring, quasi-static (m, N)."""
-    x, force, temperature = spring_equilibrium(plant, record.time, record.power,
-                                               float(record.load[0]),
-                                               spring_stiffness_of(record))
+def rig_prediction(plant, record, channels):
+    """Return {channel: array} of a clamped or spring-held muscle, quasi-static (m, N)."""
+    pretension = float(record.load[0])
+    if is_isometric(record):
+        force, temperature = isometric_force(plant, record.time, record.power, pretension)
+        x = np.zeros_like(record.time)
+    else:
+        x, force, temperature = spring_equilibrium(plant, record.time, record.power,
+                                                   pretension, spring_stiffness_of(record))
     out = {'displacement': x, 'force': force, 'temperature': temperature}
     if 'resistance' in channels:
         p = plant.params
-        out['resistance'] = resistance(temperature, x, plant.loaded_length(
-            float(record.load[0])), p.electrical, p.thermal.ambient_temperature)
+        out['resistance'] = resistance(temperature, x, plant.loaded_length(pretension),
+                                       p.electrical, p.thermal.ambient_temperature)
     return {c: out[c] for c in channels}
 
 

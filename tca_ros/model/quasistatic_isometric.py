@@ -23,6 +23,19 @@ from tca_ros.model.quasistatic_signals import actuating_temperature, thermal_res
 TEMPERATURE_STEP = 2.0  # K between the grid points of f_rod(q_0, T)
 
 
+def _temperatures(plant, time, power):
+    """Return (T of eq. (1), the actuating T_a, a grid covering T_a and ambient) (degC)."""
+    params = plant.params
+    time = np.asarray(time, dtype=float)
+    temperature = thermal_response(time, np.asarray(power, dtype=float), params)
+    actuating = actuating_temperature(time, temperature, params)
+    low = min(float(np.min(actuating)), plant.ambient)
+    high = max(float(np.max(actuating)), plant.ambient)
+    grid = np.arange(math.floor(low / TEMPERATURE_STEP) - 1,
+                     math.ceil(high / TEMPERATURE_STEP) + 2) * TEMPERATURE_STEP
+    return temperature, actuating, grid
+
+
 def isometric_force(plant, time, power, pretension):
     """Return the clamped muscle's force F(t) (N) and temperature (degC) under power (W).
 
@@ -31,14 +44,7 @@ def isometric_force(plant, time, power, pretension):
     (a ValueError) when the force passes fiber.break_force.
     """
     params = plant.params
-    time = np.asarray(time, dtype=float)
-    temperature = thermal_response(time, np.asarray(power, dtype=float), params)
-    actuating = actuating_temperature(time, temperature, params)
-    low = min(float(np.min(actuating)), plant.ambient)
-    high = max(float(np.max(actuating)), plant.ambient)
-    first = math.floor(low / TEMPERATURE_STEP) - 1
-    last = math.ceil(high / TEMPERATURE_STEP) + 1
-    grid = np.arange(first, last + 1) * TEMPERATURE_STEP
+    temperature, actuating, grid = _temperatures(plant, time, power)
     clamp = plant.reference_elongation(float(pretension))
     tension = plant.kinetostatics.tension
     forces = np.array([tension(clamp, float(t)) for t in grid])
@@ -57,13 +63,7 @@ def spring_equilibrium(plant, time, power, pretension, stiffness):
     """
     from scipy.optimize import brentq
     params = plant.params
-    time = np.asarray(time, dtype=float)
-    temperature = thermal_response(time, np.asarray(power, dtype=float), params)
-    actuating = actuating_temperature(time, temperature, params)
-    low = min(float(np.min(actuating)), plant.ambient)
-    high = max(float(np.max(actuating)), plant.ambient)
-    grid = np.arange(math.floor(low / TEMPERATURE_STEP) - 1,
-                     math.ceil(high / TEMPERATURE_STEP) + 2) * TEMPERATURE_STEP
+    temperature, actuating, grid = _temperatures(plant, time, power)
     q0 = plant.reference_elongation(float(pretension))
     tension = plant.kinetostatics.tension
     span = 0.05 * plant.kinetostatics.natural_length + 1e-4
