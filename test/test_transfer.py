@@ -250,3 +250,21 @@ def _dump(params, folder):
     path = folder / 'start.yaml'
     dump_params(params, str(path))
     return path
+
+
+def test_rig_pretension_and_environment_are_read_as_labs_write_them(tmp_path):
+    from tca_ros.diagnosis.conditions import environment_of, rig_of
+    from tca_ros.diagnosis.data import read_record
+    rows = ''.join(f'{0.2 * i:.1f},0.5,{0.01 + 1e-4 * i:.5f}\n' for i in range(30))
+    cases = (('pretension_g', '1', 0.00981), ('pretension_kg', '0.002', 0.01962),
+             ('pretension_n', '0.05', 0.05))
+    for key, value, newtons in cases:
+        path = tmp_path / f'{key}.csv'
+        path.write_text('# tca: free_stroke\n# mass_kg: 0\n# sample_rate_hz: 5\n'
+                        f'# rig: Isometric\n# {key}: {value}\n# air: fan\ntime,power,force\n'
+                        + rows)
+        r = read_record(str(path))
+        assert r.load[0] == pytest.approx(newtons) and rig_of(r) == 'isometric'
+        assert environment_of(r) == 'forced_air' and not r.displacement.any()
+    r.meta = {'rig': 'isotonic', 'environment': 'free'}
+    assert rig_of(r) == 'dead_weight' and environment_of(r) == 'still_air'

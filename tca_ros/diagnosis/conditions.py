@@ -25,14 +25,25 @@ SCALE_BOUNDS = (0.05, 500.0)
 HELD_MARGIN = 1.1  # strength taken, x the largest load a record shows the thread held
 
 
+#: header spellings of the rigs (rig.mode names)
+RIG_ALIASES = {'isotonic': 'dead_weight', 'hanging_mass': 'dead_weight',
+               'dead-weight': 'dead_weight', 'series_spring': 'spring'}
+#: header spellings of the environments, and the keys that may carry them
+ENVIRONMENT_ALIASES = {'still': STILL_AIR, 'free': STILL_AIR, 'free_air': STILL_AIR,
+                       'natural': STILL_AIR, 'air': STILL_AIR, 'forced': 'forced_air',
+                       'fan': 'forced_air'}
+ENVIRONMENT_KEYS = ('environment', 'air', 'air_flow', 'airflow')
+
+
 def rig_of(record):
     """Return the record's rig ('dead_weight' unless its header says otherwise)."""
-    return str(record.meta.get('rig', 'dead_weight')).strip()
+    name = str(record.meta.get('rig', 'dead_weight')).strip().lower().replace(' ', '_')
+    return RIG_ALIASES.get(name, name)
 
 
 def spring_stiffness_of(record):
     """Return k_s (N/m) of a spring-rig record (header ``spring_stiffness_n_per_m``)."""
-    value = record.meta.get('spring_stiffness_n_per_m')
+    value = record.meta.get('spring_stiffness_n_per_m', record.meta.get('spring_stiffness'))
     try:
         stiffness = float(value)
     except (TypeError, ValueError):
@@ -65,8 +76,9 @@ def with_tension(record):
 
 def environment_of(record):
     """Return the record's environment name (header ``environment``; default still air)."""
-    name = str(record.meta.get('environment', STILL_AIR)).strip().lower().replace(' ', '_')
-    return name or STILL_AIR
+    value = next((record.meta[k] for k in ENVIRONMENT_KEYS if k in record.meta), STILL_AIR)
+    name = str(value).strip().lower().replace(' ', '_').replace('-', '_')
+    return ENVIRONMENT_ALIASES.get(name, name) or STILL_AIR
 
 
 def environment_priors(records):

@@ -14,7 +14,8 @@ CSV layout (SI units, temperatures in degC)::
 ambient) are required; ``temperature`` (degC), ``resistance`` (ohm) and ``force``
 (N, tensile, a gauge in series: the isometric and spring rigs, docs/rigs.md) are
 optional; a record whose header says ``# rig: isometric`` needs only ``time``,
-``power`` and ``force`` (its load is ``# pretension_n:`` or the first force).
+``power`` and ``force`` (its load is ``# pretension_n:`` in N, or ``pretension_g``,
+``pretension_kg``, or else the first force).
 A rosbag2 recording of the node's own topics (``power_cmd``, ``load``,
 ``displacement``, ``temperature``; any namespace) is read by ``read_bag_record``
 (data_bag.py) and resampled onto a uniform grid; ``read_record`` picks the reader
@@ -210,9 +211,8 @@ def read_csv_record(path, max_samples=None):
     if 'displacement' not in data:  # an isometric rig: the clamp holds the length
         data['displacement'] = np.zeros_like(data['time'])
     if 'load' not in data:  # the isometric rig's load is its pretension
-        pretension = meta.get('pretension_n', data['force'][0])
-        data['load'] = np.full_like(data['time'], parse_number(
-            str(pretension), path, meta_rows.get('pretension_n', 1), 'pretension_n'))
+        data['load'] = np.full_like(data['time'], _pretension(meta, meta_rows, path,
+                                                              data['force'][0]))
     record = Record(time=data['time'] - data['time'][0], power=data['power'],
                     load=data['load'], displacement=data['displacement'],
                     temperature=data.get('temperature'), resistance=data.get('resistance'),
@@ -221,9 +221,23 @@ def read_csv_record(path, max_samples=None):
     return uniform_record(record)
 
 
+#: header keys of an isometric rig's pretension, with their factor to N
+PRETENSION_KEYS = (('pretension_n', 1.0), ('pretension', 1.0), ('pretension_kg', 9.81),
+                   ('pretension_g', 9.81e-3))
+
+
+def _pretension(meta, meta_rows, path, first_force):
+    """Return an isometric record's pretension (N): its header, else the first force."""
+    for key, factor in PRETENSION_KEYS:
+        if key in meta:
+            return factor * parse_number(str(meta[key]), path, meta_rows.get(key, 1), key)
+    return float(first_force)
+
+
 def _check_columns(columns, path, row, rig=None):
     known = REQUIRED_COLUMNS + OPTIONAL_COLUMNS
-    required = ISOMETRIC_COLUMNS if str(rig).strip() == 'isometric' else REQUIRED_COLUMNS
+    required = ISOMETRIC_COLUMNS if str(rig).strip().lower() == 'isometric' \
+        else REQUIRED_COLUMNS
     for c in columns:
         if c not in known:
             raise DataError(f'{path}: row {row}, column {clip(c)!r}: unknown column (known: '
