@@ -10,6 +10,15 @@ displacement RMSE (mm), the peak measured stroke (mm), the RMSE normalised by it
 table is written to ``DIR/compare.csv``. ``--plot FILE`` on a plain ``simulate``
 (``--input``) draws the simulated columns to a PNG as well as printing them.
 
+When ``--config`` is a calibrated params file with a ``# posterior:`` header
+(diagnosis/posterior.py), both also simulate ``--draws`` parameter sets drawn from
+the calibration's posterior (full dynamics) and shade their 5-95 % band on every
+modelled panel, labelled as the calibration's uncertainty; ``--compare`` prints one
+``# band:`` line per record with the share of measured samples inside the band
+(also ``DIR/band.csv``). A channel the calibration's records did not measure (e.g.
+temperature without a thermometer) is labelled "not measured in calibration: from
+the priors" on the plots and in that line.
+
 It is an option of ``simulate`` rather than a ``plot`` subcommand because it is a
 simulation (the same config, model, physics rate and work limits) whose inputs
 come from records; the figure and the errors are its output.
@@ -37,6 +46,52 @@ UNITS = {'power': ('power (W)', 1.0), 'power_2': ('power (W)', 1.0),
          'angle': ('angle (rad)', 1.0), 'angular_velocity': ('angular velocity (rad/s)', 1.0),
          'torque': ('torque (N m)', 1.0)}
 INPUT_COLUMNS = ('power', 'power_2', 'load')
+DEFAULT_DRAWS = 20  # posterior draws of a prediction band (each a full simulation)
+MAX_DRAWS = 1000
+BAND_CHANNELS = ('displacement', 'temperature', 'resistance')
+BAND_COLUMNS = ('record', 'draws') + tuple(
+    f'{c}_{kind}_percent' for c in BAND_CHANNELS for kind in ('in_band', 'in_band_residual'))
+
+
+def _draws(text):
+    try:
+        value = int(text)
+    except ValueError:
+        value = -1
+    if not 0 <= value <= MAX_DRAWS:
+        import argparse
+        raise argparse.ArgumentTypeError(f'{text!r}: allowed an integer 0 to {MAX_DRAWS}')
+    return value
+
+
+def posterior_of_config(config, draws):
+    """Return the ``# posterior:`` of params file ``config`` (None: none, or draws 0)."""
+    from tca_ros.cli_common import checked_config
+    from tca_ros.diagnosis.posterior import PosteriorError, read_posterior
+    if not draws:
+        return None
+    try:
+        return read_posterior(checked_config(config))
+    except PosteriorError as exc:
+        raise InputError(f'--config = {clip(config)!r}: {exc}') from None
+
+
+def band_of(samples, posterior, simulate_one):
+    """Return ({column: (low, high)}, draws used) of ``simulate_one(params)`` over samples.
+
+    ``simulate_one`` returns {column: array}; a draw that cannot be simulated
+    (ValueError, ArithmeticError) is left out.
+    """
+    from tca_ros.diagnosis.posterior import band
+    runs = []
+    for p in samples:
+        try:
+            runs.append(simulate_one(p))
+        except (ValueError, ArithmeticError):
+            continue
+    if len(runs) < 2:
+        return {}, len(runs)
+    return {c: band([r[c] for r in runs]) for c in runs[0]}, len(runs)
 
 
 def add_simulate_options(sp, source, simulate):
@@ -53,6 +108,10 @@ def add_simulate_options(sp, source, simulate):
                          '(created; if omitted: out/compare)')
     sp.add_argument('--plot', default=None, metavar='FILE',
                     help='with --input: also draw the simulated columns to this PNG')
+    sp.add_argument('--draws', type=_draws, default=DEFAULT_DRAWS, metavar='N',
+                    help='with --compare or --plot and a calibrated config (# posterior: '
+                         'header): parameter sets drawn from the calibration posterior for '
+                         f'the 90 %% band (0: none; default {DEFAULT_DRAWS})')
     sp.set_defaults(func=functools.partial(run_simulate, simulate=simulate))
 
 
@@ -128,6 +187,7 @@ def compare(args, out):
         raise InputError(f'--config = {clip(args.config)!r}: rig.mode = {params.rig.mode}; '
                          '--compare simulates dead-weight records (pass --rig dead_weight)')
     paths = [_resolve(name, '--compare', 'rec_') for name in args.compare]
+    posterior = posterior_of_config(args.config, args.draws)
     records = [read_record(path, max_samples=args.max_samples) for path in paths]
     for path, record in zip(paths, records):
         steps = record.duration * max(args.physics_rate, record.sample_rate)
@@ -138,18 +198,73 @@ def compare(args, out):
     folder = args.out or os.path.join('out', 'compare')
     os.makedirs(folder, exist_ok=True)
     label = f'config {os.path.basename(args.config)}, model {params.model}'
-    rows = []
+    rows, bands = [], []
+    samples = []
+    if posterior is not None:
+        from tca_ros.diagnosis.posterior import draw_params
+        samples = draw_params(params, posterior, args.draws, seed=0)
     out.write(','.join(SUMMARY_COLUMNS) + '\n')
     for name, record in zip(_unique_stems(paths), records):
         model = simulate_record(params, record, args.physics_rate)
         errors = record_errors(record, model)
         png = os.path.join(folder, name + '.png')
-        plot_comparison(record, model, errors, png, f'{name}: {label}')
+        drawn = band_of(samples, posterior, lambda p, r=record: {
+            c: getattr(simulate_record(p, r, args.physics_rate), c)
+            for c in ('displacement', 'temperature', 'resistance')})
+        plot_comparison(record, model, errors, png, f'{name}: {label}', drawn[0], posterior)
         rows.append(_summary_row(name, record, errors, png))
         out.write(rows[-1] + '\n')
+        if posterior is not None:
+            bands.append(_band_row(name, record, drawn, posterior))
+    for row in bands:
+        out.write(_band_line(row, posterior) + '\n')
     with open(os.path.join(folder, 'compare.csv'), 'w', encoding='utf-8') as fh:
         fh.write(','.join(SUMMARY_COLUMNS) + '\n' + '\n'.join(rows) + '\n')
+    if posterior is not None:
+        with open(os.path.join(folder, 'band.csv'), 'w', encoding='utf-8') as fh:
+            fh.write(','.join(BAND_COLUMNS) + '\n' + '\n'.join(
+                ','.join('' if v is None else (f'{v:.3g}' if isinstance(v, float) else str(v))
+                         for v in row) for row in bands) + '\n')
     return EXIT_OK
+
+
+def _band_row(name, record, drawn, posterior):
+    """Return (name, draws, then per channel % of samples in the band and in it widened).
+
+    The widened band adds the calibration's residual RMS (posterior.with_residual);
+    None where the record lacks the channel or the calibration has no residual of it.
+    """
+    from tca_ros.diagnosis.posterior import share_inside, with_residual
+    limits, used = drawn
+    rms = posterior.get('residual_rms') or {}
+    shares = []
+    for column in BAND_CHANNELS:
+        measured = getattr(record, column)
+        if measured is None or column not in limits:
+            shares += [None, None]
+            continue
+        shares.append(100.0 * share_inside(measured, *limits[column]))
+        shares.append(100.0 * share_inside(measured, *with_residual(
+            *limits[column], rms[column])) if column in rms else None)
+    return (name, used, *shares)
+
+
+def _band_line(row, posterior):
+    """Return the ``# band:`` line of one record (a comment line beside the CSV)."""
+    from tca_ros.diagnosis.posterior import UNMEASURED_NOTE, unmeasured
+    name, used = row[:2]
+    if used < 2:
+        return f'# band: {name}: no band ({used} of the posterior draws could be simulated)'
+    parts = []
+    for k, column in enumerate(BAND_CHANNELS):
+        share, wide = row[2 + 2 * k:4 + 2 * k]
+        if share is None:
+            continue
+        note = f' {UNMEASURED_NOTE}' if column in unmeasured(posterior) else ''
+        more = f' ({wide:.0f} % with the residual)' if wide is not None else ''
+        parts.append(f'{column} {share:.0f} %{more}{note}')
+    return (f'# band: {name}: measured samples inside the model 90 % band of {used} '
+            f'posterior draws: {", ".join(parts)}')
 
 
 def _unique_stems(paths):
@@ -212,8 +327,16 @@ def _pyplot():
     return plt
 
 
-def plot_comparison(record, model, errors, path, title):
-    """Draw inputs, then measured vs modelled displacement (temperature, resistance) to PNG."""
+def plot_comparison(record, model, errors, path, title, limits=None, posterior=None):
+    """Draw inputs, then measured vs modelled displacement (temperature, resistance) to PNG.
+
+    ``limits``: {column: (low, high)} of the posterior band (SI), shaded;
+    ``posterior``: its posterior, whose unmeasured channels are labelled.
+    """
+    from tca_ros.diagnosis.posterior import BAND_LABEL, UNMEASURED_NOTE, unmeasured, \
+        with_residual
+    limits = limits or {}
+    caveat = set(unmeasured(posterior)) if posterior is not None else set()
     plt = _pyplot()
     panels = ['displacement'] + [c for c in ('temperature', 'resistance')
                                  if getattr(record, c) is not None]
@@ -234,12 +357,28 @@ def plot_comparison(record, model, errors, path, title):
         label, scale = UNITS[column]
         ax.plot(record.time, scale * getattr(record, column), '.', ms=2, color='k',
                 label='measured (record)')
+        note = f' {UNMEASURED_NOTE}' if column in caveat else ''
+        if column in limits:
+            low, high = limits[column]
+            rms = (posterior.get('residual_rms') or {}).get(column)
+            if rms is not None:
+                wide = with_residual(low, high, rms)
+                ax.fill_between(model.time, scale * wide[0], scale * wide[1],
+                                color='tab:blue', alpha=0.1, lw=0,
+                                label='with the calibration residual (where a '
+                                      'measurement should fall)')
+            ax.fill_between(model.time, scale * low, scale * high, color='tab:blue',
+                            alpha=0.3, lw=0, label=BAND_LABEL + note)
         ax.plot(model.time, scale * getattr(model, column), color='tab:blue', lw=1.2,
-                label='modelled (tca_sim)')
+                label='modelled (tca_sim)' + note)
         ax.set_ylabel(label)
         ax.legend(fontsize=7, loc='best')
+    width = ''
+    if 'displacement' in limits:
+        half = 0.5 * np.max(limits['displacement'][1] - limits['displacement'][0])
+        width = f'; 90 % band at most +-{1e3 * half:.2g} mm'
     axes[1].set_title(f'RMSE {1e3 * errors["rmse"]:.3g} mm = {100 * errors["nrmse"]:.3g} % '
-                      f'of the peak stroke {1e3 * errors["peak"]:.3g} mm', fontsize=9)
+                      f'of the peak stroke {1e3 * errors["peak"]:.3g} mm{width}', fontsize=9)
     axes[-1].set_xlabel('time (s)')
     fig.suptitle(title, fontsize=10)
     fig.tight_layout()

@@ -7,10 +7,12 @@ Gauss-Newton covariance. The calibrated params file keeps it in one header line
 
     # posterior: {"names": [...], "log": [...], "mean": [...], "cov": [[...]],
     #             "low": [...], "high": [...], "base": {...}, "channels": [...],
-    #             "model": "..."}
+    #             "model": "...", "residual_rms": {...}, "unknown_stderr": [...]}
 
 ``mean`` and ``cov`` are in fit coordinates (order ``names``), ``low``/``high``
-the fit bounds, ``channels`` the record channels the calibration fitted and
+the fit bounds, ``channels`` the record channels the calibration fitted,
+``residual_rms`` the RMS of its residual per channel (m, K, ohm, N: the sensor
+noise plus what the model misses) and
 ``base`` the START params' values of every params-file entry the calibration
 writes (``apply_calibration`` scales some relative to the start, e.g. the moduli
 by stiffness_scale). A draw is ``apply_calibration(file params with base written
@@ -36,6 +38,7 @@ from tca_ros.model.params import to_flat_dict
 POSTERIOR_KEY = 'posterior'  # params-file header line written by `tca_sim calibrate`
 NOT_DRAWN = ('initial_temperature_rise',)  # a record's start, not the muscle's
 BAND = (5.0, 95.0)  # %, the percentiles of a prediction band (90 %)
+Z90 = 1.6448536269514722  # half-width of a Gaussian's central 90 %, in standard deviations
 BAND_LABEL = 'model 90 % band (calibration uncertainty)'
 UNMEASURED_NOTE = '(not measured in calibration: from the priors)'
 OUTPUT_CHANNELS = ('displacement', 'temperature', 'resistance')
@@ -74,7 +77,15 @@ def posterior_of(cal):
             'high': [p.fit_bounds()[1] for p in priors],
             'base': _base(cal.start, keep, priors, mean),
             'channels': list(cal.channels), 'model': cal.model,
+            'residual_rms': residual_rms(cal.report),
             'unknown_stderr': [n for n, u in zip(keep, unknown) if u]}
+
+
+def residual_rms(report):
+    """Return {channel: RMS (channel unit) of the fit's residual over its records}."""
+    rows = report.record_rmse or []
+    channels = rows[0].keys() if rows else ()
+    return {c: float(np.sqrt(np.mean([r[c] ** 2 for r in rows]))) for c in channels}
 
 
 def _base(start, names, priors, mean):
@@ -186,3 +197,14 @@ def share_inside(measured, low, high):
     """Return the share (-) of ``measured`` samples within [low, high]."""
     measured = np.asarray(measured, dtype=float)
     return float(np.mean((measured >= low) & (measured <= high)))
+
+
+def with_residual(low, high, rms):
+    """Return the band (low, high) widened by a Gaussian residual of ``rms``.
+
+    The half-widths add in quadrature with the residual's 90 % half-width
+    (Z90 x rms): where a measurement is expected to fall, not only the model.
+    """
+    centre, half = 0.5 * (high + low), 0.5 * (high - low)
+    half = np.sqrt(half ** 2 + (Z90 * rms) ** 2)
+    return centre - half, centre + half
