@@ -29,6 +29,8 @@ import os
 
 import numpy as np
 
+from tca_ros.cli_band import BAND_COLUMNS, band_line, band_of, band_row, DEFAULT_DRAWS, \
+    draws_count, posterior_of_config, profile_band
 from tca_ros.cli_common import EXIT_OK, InputError
 from tca_ros.diagnosis.data import clip
 from tca_ros.examples import resolve_example, shipped_examples
@@ -46,52 +48,6 @@ UNITS = {'power': ('power (W)', 1.0), 'power_2': ('power (W)', 1.0),
          'angle': ('angle (rad)', 1.0), 'angular_velocity': ('angular velocity (rad/s)', 1.0),
          'torque': ('torque (N m)', 1.0)}
 INPUT_COLUMNS = ('power', 'power_2', 'load')
-DEFAULT_DRAWS = 20  # posterior draws of a prediction band (each a full simulation)
-MAX_DRAWS = 1000
-BAND_CHANNELS = ('displacement', 'temperature', 'resistance')
-BAND_COLUMNS = ('record', 'draws') + tuple(
-    f'{c}_{kind}_percent' for c in BAND_CHANNELS for kind in ('in_band', 'in_band_residual'))
-
-
-def _draws(text):
-    try:
-        value = int(text)
-    except ValueError:
-        value = -1
-    if not 0 <= value <= MAX_DRAWS:
-        import argparse
-        raise argparse.ArgumentTypeError(f'{text!r}: allowed an integer 0 to {MAX_DRAWS}')
-    return value
-
-
-def posterior_of_config(config, draws):
-    """Return the ``# posterior:`` of params file ``config`` (None: none, or draws 0)."""
-    from tca_ros.cli_common import checked_config
-    from tca_ros.diagnosis.posterior import PosteriorError, read_posterior
-    if not draws:
-        return None
-    try:
-        return read_posterior(checked_config(config))
-    except PosteriorError as exc:
-        raise InputError(f'--config = {clip(config)!r}: {exc}') from None
-
-
-def band_of(samples, posterior, simulate_one):
-    """Return ({column: (low, high)}, draws used) of ``simulate_one(params)`` over samples.
-
-    ``simulate_one`` returns {column: array}; a draw that cannot be simulated
-    (ValueError, ArithmeticError) is left out.
-    """
-    from tca_ros.diagnosis.posterior import band
-    runs = []
-    for p in samples:
-        try:
-            runs.append(simulate_one(p))
-        except (ValueError, ArithmeticError):
-            continue
-    if len(runs) < 2:
-        return {}, len(runs)
-    return {c: band([r[c] for r in runs]) for c in runs[0]}, len(runs)
 
 
 def add_simulate_options(sp, source, simulate):
@@ -108,7 +64,7 @@ def add_simulate_options(sp, source, simulate):
                          '(created; if omitted: out/compare)')
     sp.add_argument('--plot', default=None, metavar='FILE',
                     help='with --input: also draw the simulated columns to this PNG')
-    sp.add_argument('--draws', type=_draws, default=DEFAULT_DRAWS, metavar='N',
+    sp.add_argument('--draws', type=draws_count, default=DEFAULT_DRAWS, metavar='N',
                     help='with --compare or --plot and a calibrated config (# posterior: '
                          'header): parameter sets drawn from the calibration posterior for '
                          f'the 90 %% band (0: none; default {DEFAULT_DRAWS})')
@@ -129,15 +85,24 @@ def run_simulate(args, out, simulate):
     if not args.plot:
         return simulate(args, out)
     _check_folder(args.plot, '--plot')
+    posterior = posterior_of_config(args.config, args.draws)
     tee = _Tee(out)
     status = simulate(args, tee)
     if status == EXIT_OK:
-        from tca_ros.cli_common import checked_config
-        from tca_ros.model.params import load_params
-        model = args.model or load_params(checked_config(args.config)).model
+        from tca_ros.cli_common import params_from_args
+        params = params_from_args(args)
+        limits = profile_band(tee.getvalue(), params, posterior, args)
         plot_simulation(tee.getvalue(), args.plot, f'{os.path.basename(args.input)}, '
-                        f'config {os.path.basename(args.config)}, model {model}')
+                        f'config {os.path.basename(args.config)}, model {params.model}',
+                        limits, posterior)
     return status
+
+
+def _table(text):
+    """Return (column names, 2-D array) of a CSV ``text`` with one header row."""
+    lines = text.splitlines()
+    return lines[0].split(','), np.array([[float(v) for v in line.split(',')]
+                                          for line in lines[1:]], ndmin=2)
 
 
 class _Tee(io.StringIO):
@@ -215,9 +180,9 @@ def compare(args, out):
         rows.append(_summary_row(name, record, errors, png))
         out.write(rows[-1] + '\n')
         if posterior is not None:
-            bands.append(_band_row(name, record, drawn, posterior))
+            bands.append(band_row(name, record, drawn, posterior))
     for row in bands:
-        out.write(_band_line(row, posterior) + '\n')
+        out.write(band_line(row, posterior) + '\n')
     with open(os.path.join(folder, 'compare.csv'), 'w', encoding='utf-8') as fh:
         fh.write(','.join(SUMMARY_COLUMNS) + '\n' + '\n'.join(rows) + '\n')
     if posterior is not None:
@@ -226,45 +191,6 @@ def compare(args, out):
                 ','.join('' if v is None else (f'{v:.3g}' if isinstance(v, float) else str(v))
                          for v in row) for row in bands) + '\n')
     return EXIT_OK
-
-
-def _band_row(name, record, drawn, posterior):
-    """Return (name, draws, then per channel % of samples in the band and in it widened).
-
-    The widened band adds the calibration's residual RMS (posterior.with_residual);
-    None where the record lacks the channel or the calibration has no residual of it.
-    """
-    from tca_ros.diagnosis.posterior import share_inside, with_residual
-    limits, used = drawn
-    rms = posterior.get('residual_rms') or {}
-    shares = []
-    for column in BAND_CHANNELS:
-        measured = getattr(record, column)
-        if measured is None or column not in limits:
-            shares += [None, None]
-            continue
-        shares.append(100.0 * share_inside(measured, *limits[column]))
-        shares.append(100.0 * share_inside(measured, *with_residual(
-            *limits[column], rms[column])) if column in rms else None)
-    return (name, used, *shares)
-
-
-def _band_line(row, posterior):
-    """Return the ``# band:`` line of one record (a comment line beside the CSV)."""
-    from tca_ros.diagnosis.posterior import UNMEASURED_NOTE, unmeasured
-    name, used = row[:2]
-    if used < 2:
-        return f'# band: {name}: no band ({used} of the posterior draws could be simulated)'
-    parts = []
-    for k, column in enumerate(BAND_CHANNELS):
-        share, wide = row[2 + 2 * k:4 + 2 * k]
-        if share is None:
-            continue
-        note = f' {UNMEASURED_NOTE}' if column in unmeasured(posterior) else ''
-        more = f' ({wide:.0f} % with the residual)' if wide is not None else ''
-        parts.append(f'{column} {share:.0f} %{more}{note}')
-    return (f'# band: {name}: measured samples inside the model 90 % band of {used} '
-            f'posterior draws: {", ".join(parts)}')
 
 
 def _unique_stems(paths):
@@ -386,11 +312,16 @@ def plot_comparison(record, model, errors, path, title, limits=None, posterior=N
     plt.close(fig)
 
 
-def plot_simulation(text, path, title):
-    """Draw each column of ``simulate``'s CSV ``text`` against time to a PNG at ``path``."""
-    lines = text.splitlines()
-    names = lines[0].split(',')
-    table = np.array([[float(v) for v in line.split(',')] for line in lines[1:]], ndmin=2)
+def plot_simulation(text, path, title, limits=None, posterior=None):
+    """Draw each column of ``simulate``'s CSV ``text`` against time to a PNG at ``path``.
+
+    ``limits``: {column: (low, high)} of the posterior band (SI), shaded;
+    ``posterior``: its posterior, whose unmeasured channels are labelled.
+    """
+    from tca_ros.diagnosis.posterior import BAND_LABEL, UNMEASURED_NOTE, unmeasured
+    limits = limits or {}
+    caveat = set(unmeasured(posterior)) if posterior is not None else set()
+    names, table = _table(text)
     columns = [n for n in names[1:] if n in UNITS]
     plt = _pyplot()
     fig, axes = plt.subplots(len(columns), 1, figsize=(8, 1.8 * len(columns)), sharex=True,
@@ -402,7 +333,11 @@ def plot_simulation(text, path, title):
             ax.step(table[:, 0], values, where='post', color='tab:red',
                     label=f'{name} (profile input)')
         else:
-            ax.plot(table[:, 0], values, color='tab:blue', label=f'{name} (modelled)')
+            note = f' {UNMEASURED_NOTE}' if name in caveat else ''
+            if name in limits:
+                ax.fill_between(table[:, 0], scale * limits[name][0], scale * limits[name][1],
+                                color='tab:blue', alpha=0.3, lw=0, label=BAND_LABEL + note)
+            ax.plot(table[:, 0], values, color='tab:blue', label=f'{name} (modelled){note}')
         ax.set_ylabel(label)
         ax.legend(fontsize=7, loc='upper right')
     axes[-1, 0].set_xlabel('time (s)')
