@@ -73,8 +73,7 @@ def profile_band(text, params, posterior, args):
         return {}
     from tca_ros.diagnosis.posterior import draw_params
     from tca_ros.model.rig_simulation import simulate_rig
-    from tca_ros.cli_compare import _table
-    names, table = _table(text)
+    names, table = csv_table(text)
     t, power, load = (table[:, names.index(c)] for c in ('time', 'power', 'load'))
 
     def run(p):
@@ -121,3 +120,10 @@ def band_line(row, posterior):
         parts.append(f'{column} {share:.0f} %{more}{note}')
     return (f'# band: {name}: measured samples inside the model 90 % band of {used} '
             f'posterior draws: {", ".join(parts)}')
+
+
+def csv_table(text):
+    """Return (column names, 2-D array) of a CSV ``text`` with one header row."""
+    lines = text.splitlines()
+    return lines[0].split(','), np.array([[float(v) for v in line.split(',')]
+                                          for line in lines[1:]], ndmin=2)

@@ -29,8 +29,8 @@ import os
 
 import numpy as np
 
-from tca_ros.cli_band import BAND_COLUMNS, band_line, band_of, band_row, DEFAULT_DRAWS, \
-    draws_count, posterior_of_config, profile_band
+from tca_ros.cli_band import BAND_COLUMNS, band_line, band_of, band_row, csv_table, \
+    DEFAULT_DRAWS, draws_count, posterior_of_config, profile_band
 from tca_ros.cli_common import EXIT_OK, InputError
 from tca_ros.diagnosis.data import clip
 from tca_ros.examples import resolve_example, shipped_examples
@@ -96,13 +96,6 @@ def run_simulate(args, out, simulate):
                         f'config {os.path.basename(args.config)}, model {params.model}',
                         limits, posterior)
     return status
-
-
-def _table(text):
-    """Return (column names, 2-D array) of a CSV ``text`` with one header row."""
-    lines = text.splitlines()
-    return lines[0].split(','), np.array([[float(v) for v in line.split(',')]
-                                          for line in lines[1:]], ndmin=2)
 
 
 class _Tee(io.StringIO):
@@ -321,7 +314,7 @@ def plot_simulation(text, path, title, limits=None, posterior=None):
     from tca_ros.diagnosis.posterior import BAND_LABEL, UNMEASURED_NOTE, unmeasured
     limits = limits or {}
     caveat = set(unmeasured(posterior)) if posterior is not None else set()
-    names, table = _table(text)
+    names, table = csv_table(text)
     columns = [n for n in names[1:] if n in UNITS]
     plt = _pyplot()
     fig, axes = plt.subplots(len(columns), 1, figsize=(8, 1.8 * len(columns)), sharex=True,

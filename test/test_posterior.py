@@ -158,3 +158,23 @@ def test_bad_posterior_or_draws_is_one_line_with_status_2(calibrated, tmp_path, 
         run('simulate', '--compare', folder / 'r1.csv', '--config', folder / 'cal.yaml',
             '--draws', 1)
     assert exc.value.code == 2 and "--draws: '1'" in capsys.readouterr().err
+
+
+def test_a_profile_plot_draws_the_band(calibrated, tmp_path, monkeypatch):
+    import tca_ros.cli_compare as cli_compare
+    folder, _ = calibrated
+    seen = {}
+    original = cli_compare.plot_simulation
+
+    def spy(text, path, title, limits=None, posterior=None):
+        seen.update(limits=limits, posterior=posterior)
+        return original(text, path, title, limits, posterior)
+    monkeypatch.setattr(cli_compare, 'plot_simulation', spy)
+    status, text = run('simulate', '--config', folder / 'cal.yaml', '--model', 'cst',
+                       '--input', 'profile_steps', '--rate', 5, '--physics-rate', 200,
+                       '--draws', 4, '--plot', tmp_path / 'steps.png')
+    assert status == 0 and (tmp_path / 'steps.png').stat().st_size > 5000
+    assert set(seen['limits']) == {'displacement', 'temperature', 'resistance'}
+    low, high = seen['limits']['displacement']
+    assert np.all(low <= high) and np.max(high - low) > 0.0
+    assert seen['posterior']['channels'] == ['displacement']  # temperature: from the priors
