@@ -15,8 +15,9 @@ import pytest
 from tca_ros.cli import main
 from tca_ros.cli_compare import simulate_record
 from tca_ros.diagnosis.data import write_csv_record
-from tca_ros.diagnosis.posterior import check_posterior, draw_coordinates, draw_params, \
-    mean_params, POSTERIOR_KEY, PosteriorError, read_posterior, UNMEASURED_NOTE, write_line
+from tca_ros.diagnosis.posterior import BAND_LABEL, check_posterior, draw_coordinates, \
+    draw_params, mean_params, POSTERIOR_KEY, PosteriorError, read_posterior, UNMEASURED_NOTE, \
+    write_line
 from tca_ros.diagnosis.realistic import realistic_set
 from tca_ros.model.params import dump_params, load_params, to_flat_dict
 
@@ -170,6 +171,14 @@ def test_a_profile_plot_draws_the_band(calibrated, tmp_path, monkeypatch):
         seen.update(limits=limits, posterior=posterior)
         return original(text, path, title, limits, posterior)
     monkeypatch.setattr(cli_compare, 'plot_simulation', spy)
+    import matplotlib.figure
+    labels, save = [], matplotlib.figure.Figure.savefig
+
+    def legends(fig, *args, **kwargs):
+        labels.extend(t.get_text() for ax in fig.axes if ax.get_legend()
+                      for t in ax.get_legend().get_texts())
+        return save(fig, *args, **kwargs)
+    monkeypatch.setattr(matplotlib.figure.Figure, 'savefig', legends)
     status, text = run('simulate', '--config', folder / 'cal.yaml', '--model', 'cst',
                        '--input', 'profile_steps', '--rate', 5, '--physics-rate', 200,
                        '--draws', 4, '--plot', tmp_path / 'steps.png')
@@ -177,4 +186,7 @@ def test_a_profile_plot_draws_the_band(calibrated, tmp_path, monkeypatch):
     assert set(seen['limits']) == {'displacement', 'temperature', 'resistance'}
     low, high = seen['limits']['displacement']
     assert np.all(low <= high) and np.max(high - low) > 0.0
-    assert seen['posterior']['channels'] == ['displacement']  # temperature: from the priors
+    assert seen['posterior']['channels'] == ['displacement']
+    assert f'{BAND_LABEL} {UNMEASURED_NOTE}' in labels  # the temperature's band
+    assert f'temperature (modelled) {UNMEASURED_NOTE}' in labels
+    assert BAND_LABEL in labels and 'displacement (modelled)' in labels  # measured: no note
