@@ -83,6 +83,7 @@ def cmd_linearize(args, out):
         from tca_ros.diagnosis.posterior import draw_params
         spread = drawn_figures(draw_params(params, posterior, args.draws, seed=0),
                                args.power, args.load)
+        spread['requested'] = args.draws  # draws the params schema refused count as failed
     write_summary(params, plants, out, posterior, spread)
     if args.out:
         os.makedirs(args.out, exist_ok=True)

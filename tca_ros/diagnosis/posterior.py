@@ -34,6 +34,7 @@ import numpy as np
 from tca_ros.diagnosis.calibration_parameters import apply_calibration
 from tca_ros.diagnosis.conditions import SCALE_PREFIX
 from tca_ros.model.params import to_flat_dict
+from tca_ros.model.params_schema import ParameterError
 
 POSTERIOR_KEY = 'posterior'  # params-file header line written by `tca_sim calibrate`
 NOT_DRAWN = ('initial_temperature_rise',)  # a record's start, not the muscle's
@@ -168,11 +169,18 @@ def draw_params(params, posterior, n, seed=0):
     """Return ``n`` TcaParams drawn from ``posterior`` around the calibrated ``params``.
 
     ``params``: the calibrated params file's TcaParams (the draws keep everything
-    the calibration did not fit, e.g. a --model override).
+    the calibration did not fit, e.g. a --model override). A draw the params
+    schema refuses (a value past its allowed range) is left out, so fewer than
+    ``n`` may return.
     """
     base = params.with_values(**posterior['base']) if posterior['base'] else params
-    return [apply_calibration(base, values_of(posterior, z))
-            for z in draw_coordinates(posterior, n, seed)]
+    out = []
+    for z in draw_coordinates(posterior, n, seed):
+        try:
+            out.append(apply_calibration(base, values_of(posterior, z)))
+        except ParameterError:
+            continue
+    return out
 
 
 def mean_params(params, posterior):
