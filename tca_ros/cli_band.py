@@ -45,29 +45,50 @@ def posterior_of_config(config, draws):
         raise InputError(f'--config = {clip(config)!r}: {exc}') from None
 
 
-def band_of(samples, posterior, simulate_one):
-    """Return ({column: (low, high)}, draws used) of ``simulate_one(params)`` over samples.
+def band_rate(physics_rate, sample_rate):
+    """Return the physics rate (Hz) of the band's draws.
 
-    ``simulate_one`` returns {column: array}; a draw that cannot be simulated
-    (ValueError, ArithmeticError) is left out.
+    The calibration's own full-dynamics rate (MIN_PHYSICS_RATE_HZ, or the record's
+    sample rate if higher), unless ``physics_rate`` is lower: each draw is a full
+    simulation, and the spread between draws at one rate is what the band needs.
+    """
+    from tca_ros.diagnosis.calibration import MIN_PHYSICS_RATE_HZ
+    return min(physics_rate, max(MIN_PHYSICS_RATE_HZ, sample_rate))
+
+
+def band_of(samples, simulate_one, centre, params, rate, physics_rate):
+    """Return ({column: (low, high)}, draws used) of the draws ``samples`` about ``centre``.
+
+    ``simulate_one(params, rate)`` returns {column: array}; ``centre`` is that of
+    the calibrated ``params`` at ``physics_rate`` (the model line). The draws run
+    at ``rate`` (:func:`band_rate`): their BAND percentiles of the deviation from
+    ``params`` simulated at the same rate are laid about ``centre``, so the band
+    carries the calibration's spread, not the rates' discretisation difference.
+    A draw that cannot be simulated (ValueError, ArithmeticError) is left out.
     """
     from tca_ros.diagnosis.posterior import band
     runs = []
     for p in samples:
         try:
-            runs.append(simulate_one(p))
+            runs.append(simulate_one(p, rate))
         except (ValueError, ArithmeticError):
             continue
     if len(runs) < 2:
         return {}, len(runs)
-    return {c: band([r[c] for r in runs]) for c in runs[0]}, len(runs)
+    reference = centre if rate == physics_rate else simulate_one(params, rate)
+    out = {}
+    for c in runs[0]:
+        low, high = band([r[c] - reference[c] for r in runs])
+        out[c] = (centre[c] + low, centre[c] + high)
+    return out, len(runs)
 
 
 def profile_band(text, params, posterior, args):
     """Return {column: (low, high)} of the posterior band of a dead-weight profile run.
 
     ``text``: the CSV ``simulate`` printed (its time, power and load columns are
-    the inputs held between rows); {} without a posterior or on another rig.
+    the inputs held between rows, its outputs the model line); {} without a
+    posterior or on another rig.
     """
     if posterior is None or params.rig.mode != 'dead_weight':
         return {}
@@ -75,11 +96,14 @@ def profile_band(text, params, posterior, args):
     from tca_ros.model.rig_simulation import simulate_rig
     names, table = csv_table(text)
     t, power, load = (table[:, names.index(c)] for c in ('time', 'power', 'load'))
+    centre = {c: table[:, names.index(c)] for c in BAND_CHANNELS}
 
-    def run(p):
-        columns = simulate_rig(p, t, power, load, physics_rate=args.physics_rate).columns
+    def run(p, rate):
+        columns = simulate_rig(p, t, power, load, physics_rate=rate).columns
         return {c: np.asarray(columns[c]) for c in BAND_CHANNELS}
-    limits, _ = band_of(draw_params(params, posterior, args.draws, seed=0), posterior, run)
+    rate = band_rate(args.physics_rate, args.rate)
+    limits, _ = band_of(draw_params(params, posterior, args.draws, seed=0), run, centre,
+                        params, rate, args.physics_rate)
     return limits
 
 

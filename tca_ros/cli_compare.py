@@ -29,8 +29,8 @@ import os
 
 import numpy as np
 
-from tca_ros.cli_band import BAND_COLUMNS, band_line, band_of, band_row, csv_table, \
-    DEFAULT_DRAWS, draws_count, posterior_of_config, profile_band
+from tca_ros.cli_band import BAND_COLUMNS, band_line, band_of, band_rate, band_row, \
+    csv_table, DEFAULT_DRAWS, draws_count, posterior_of_config, profile_band
 from tca_ros.cli_common import EXIT_OK, InputError
 from tca_ros.diagnosis.data import clip
 from tca_ros.examples import resolve_example, shipped_examples
@@ -166,9 +166,11 @@ def compare(args, out):
         model = simulate_record(params, record, args.physics_rate)
         errors = record_errors(record, model)
         png = os.path.join(folder, name + '.png')
-        drawn = band_of(samples, posterior, lambda p, r=record: {
-            c: getattr(simulate_record(p, r, args.physics_rate), c)
-            for c in ('displacement', 'temperature', 'resistance')})
+
+        def run(p, rate, r=record):
+            return _outputs(simulate_record(p, r, rate))
+        drawn = band_of(samples, run, _outputs(model), params,
+                        band_rate(args.physics_rate, record.sample_rate), args.physics_rate)
         plot_comparison(record, model, errors, png, f'{name}: {label}', drawn[0], posterior)
         rows.append(_summary_row(name, record, errors, png))
         out.write(rows[-1] + '\n')
@@ -184,6 +186,11 @@ def compare(args, out):
                 ','.join('' if v is None else (f'{v:.3g}' if isinstance(v, float) else str(v))
                          for v in row) for row in bands) + '\n')
     return EXIT_OK
+
+
+def _outputs(result):
+    """Return {column: array} of a SimulationResult's displacement, temperature, resistance."""
+    return {c: getattr(result, c) for c in ('displacement', 'temperature', 'resistance')}
 
 
 def _unique_stems(paths):
