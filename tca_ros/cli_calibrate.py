@@ -99,6 +99,8 @@ def cmd_calibrate(args, out):
         header.append(f'{est.name} = {est.value:.5g} +- {est.stderr:.2g} {est.unit} ({state})')
     from tca_ros.diagnosis.transfer import header_line, trained_range
     header.append(header_line(trained_range(cal)))
+    from tca_ros.diagnosis.posterior import posterior_of, write_line
+    header.append(write_line(posterior_of(cal)))  # docs/own_muscle.md, "Uncertainty"
     muscle, start_note = muscle_at_rest(cal.params)
     if folder:
         os.makedirs(folder, exist_ok=True)

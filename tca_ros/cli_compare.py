@@ -10,6 +10,15 @@ displacement RMSE (mm), the peak measured stroke (mm), the RMSE normalised by it
 table is written to ``DIR/compare.csv``. ``--plot FILE`` on a plain ``simulate``
 (``--input``) draws the simulated columns to a PNG as well as printing them.
 
+When ``--config`` is a calibrated params file with a ``# posterior:`` header
+(diagnosis/posterior.py), both also simulate ``--draws`` parameter sets drawn from
+the calibration's posterior (full dynamics) and shade their 5-95 % band on every
+modelled panel, labelled as the calibration's uncertainty; ``--compare`` prints one
+``# band:`` line per record with the share of measured samples inside the band
+(also ``DIR/band.csv``). A channel the calibration's records did not measure (e.g.
+temperature without a thermometer) is labelled "not measured in calibration: from
+the priors" on the plots and in that line.
+
 It is an option of ``simulate`` rather than a ``plot`` subcommand because it is a
 simulation (the same config, model, physics rate and work limits) whose inputs
 come from records; the figure and the errors are its output.
@@ -20,6 +29,8 @@ import os
 
 import numpy as np
 
+from tca_ros.cli_band import BAND_COLUMNS, band_line, band_of, band_rate, band_row, \
+    csv_table, DEFAULT_DRAWS, draws_count, posterior_of_config, profile_band
 from tca_ros.cli_common import EXIT_OK, InputError
 from tca_ros.diagnosis.data import clip
 from tca_ros.examples import resolve_example, shipped_examples
@@ -53,6 +64,10 @@ def add_simulate_options(sp, source, simulate):
                          '(created; if omitted: out/compare)')
     sp.add_argument('--plot', default=None, metavar='FILE',
                     help='with --input: also draw the simulated columns to this PNG')
+    sp.add_argument('--draws', type=draws_count, default=DEFAULT_DRAWS, metavar='N',
+                    help='with --compare or --plot and a calibrated config (# posterior: '
+                         'header): parameter sets drawn from the calibration posterior for '
+                         f'the 90 %% band (0: none; default {DEFAULT_DRAWS})')
     sp.set_defaults(func=functools.partial(run_simulate, simulate=simulate))
 
 
@@ -70,14 +85,16 @@ def run_simulate(args, out, simulate):
     if not args.plot:
         return simulate(args, out)
     _check_folder(args.plot, '--plot')
+    posterior = posterior_of_config(args.config, args.draws)
     tee = _Tee(out)
     status = simulate(args, tee)
     if status == EXIT_OK:
-        from tca_ros.cli_common import checked_config
-        from tca_ros.model.params import load_params
-        model = args.model or load_params(checked_config(args.config)).model
+        from tca_ros.cli_common import params_from_args
+        params = params_from_args(args)
+        limits = profile_band(tee.getvalue(), params, posterior, args)
         plot_simulation(tee.getvalue(), args.plot, f'{os.path.basename(args.input)}, '
-                        f'config {os.path.basename(args.config)}, model {model}')
+                        f'config {os.path.basename(args.config)}, model {params.model}',
+                        limits, posterior)
     return status
 
 
@@ -128,6 +145,7 @@ def compare(args, out):
         raise InputError(f'--config = {clip(args.config)!r}: rig.mode = {params.rig.mode}; '
                          '--compare simulates dead-weight records (pass --rig dead_weight)')
     paths = [_resolve(name, '--compare', 'rec_') for name in args.compare]
+    posterior = posterior_of_config(args.config, args.draws)
     records = [read_record(path, max_samples=args.max_samples) for path in paths]
     for path, record in zip(paths, records):
         steps = record.duration * max(args.physics_rate, record.sample_rate)
@@ -138,18 +156,41 @@ def compare(args, out):
     folder = args.out or os.path.join('out', 'compare')
     os.makedirs(folder, exist_ok=True)
     label = f'config {os.path.basename(args.config)}, model {params.model}'
-    rows = []
+    rows, bands = [], []
+    samples = []
+    if posterior is not None:
+        from tca_ros.diagnosis.posterior import draw_params
+        samples = draw_params(params, posterior, args.draws, seed=0)
     out.write(','.join(SUMMARY_COLUMNS) + '\n')
     for name, record in zip(_unique_stems(paths), records):
         model = simulate_record(params, record, args.physics_rate)
         errors = record_errors(record, model)
         png = os.path.join(folder, name + '.png')
-        plot_comparison(record, model, errors, png, f'{name}: {label}')
+
+        def run(p, rate, r=record):
+            return _outputs(simulate_record(p, r, rate))
+        drawn = band_of(samples, run, _outputs(model), params,
+                        band_rate(args.physics_rate, record.sample_rate), args.physics_rate)
+        plot_comparison(record, model, errors, png, f'{name}: {label}', drawn[0], posterior)
         rows.append(_summary_row(name, record, errors, png))
         out.write(rows[-1] + '\n')
+        if posterior is not None:
+            bands.append(band_row(name, record, drawn, posterior))
+    for row in bands:
+        out.write(band_line(row, posterior) + '\n')
     with open(os.path.join(folder, 'compare.csv'), 'w', encoding='utf-8') as fh:
         fh.write(','.join(SUMMARY_COLUMNS) + '\n' + '\n'.join(rows) + '\n')
+    if posterior is not None:
+        with open(os.path.join(folder, 'band.csv'), 'w', encoding='utf-8') as fh:
+            fh.write(','.join(BAND_COLUMNS) + '\n' + '\n'.join(
+                ','.join('' if v is None else (f'{v:.3g}' if isinstance(v, float) else str(v))
+                         for v in row) for row in bands) + '\n')
     return EXIT_OK
+
+
+def _outputs(result):
+    """Return {column: array} of a SimulationResult's displacement, temperature, resistance."""
+    return {c: getattr(result, c) for c in ('displacement', 'temperature', 'resistance')}
 
 
 def _unique_stems(paths):
@@ -212,8 +253,16 @@ def _pyplot():
     return plt
 
 
-def plot_comparison(record, model, errors, path, title):
-    """Draw inputs, then measured vs modelled displacement (temperature, resistance) to PNG."""
+def plot_comparison(record, model, errors, path, title, limits=None, posterior=None):
+    """Draw inputs, then measured vs modelled displacement (temperature, resistance) to PNG.
+
+    ``limits``: {column: (low, high)} of the posterior band (SI), shaded;
+    ``posterior``: its posterior, whose unmeasured channels are labelled.
+    """
+    from tca_ros.diagnosis.posterior import BAND_LABEL, UNMEASURED_NOTE, unmeasured, \
+        with_residual
+    limits = limits or {}
+    caveat = set(unmeasured(posterior)) if posterior is not None else set()
     plt = _pyplot()
     panels = ['displacement'] + [c for c in ('temperature', 'resistance')
                                  if getattr(record, c) is not None]
@@ -234,12 +283,28 @@ def plot_comparison(record, model, errors, path, title):
         label, scale = UNITS[column]
         ax.plot(record.time, scale * getattr(record, column), '.', ms=2, color='k',
                 label='measured (record)')
+        note = f' {UNMEASURED_NOTE}' if column in caveat else ''
+        if column in limits:
+            low, high = limits[column]
+            rms = (posterior.get('residual_rms') or {}).get(column)
+            if rms is not None:
+                wide = with_residual(low, high, rms)
+                ax.fill_between(model.time, scale * wide[0], scale * wide[1],
+                                color='tab:blue', alpha=0.1, lw=0,
+                                label='with the calibration residual (where a '
+                                      'measurement should fall)')
+            ax.fill_between(model.time, scale * low, scale * high, color='tab:blue',
+                            alpha=0.3, lw=0, label=BAND_LABEL + note)
         ax.plot(model.time, scale * getattr(model, column), color='tab:blue', lw=1.2,
-                label='modelled (tca_sim)')
+                label='modelled (tca_sim)' + note)
         ax.set_ylabel(label)
         ax.legend(fontsize=7, loc='best')
+    width = ''
+    if 'displacement' in limits:
+        half = 0.5 * np.max(limits['displacement'][1] - limits['displacement'][0])
+        width = f'; 90 % band at most +-{1e3 * half:.2g} mm'
     axes[1].set_title(f'RMSE {1e3 * errors["rmse"]:.3g} mm = {100 * errors["nrmse"]:.3g} % '
-                      f'of the peak stroke {1e3 * errors["peak"]:.3g} mm', fontsize=9)
+                      f'of the peak stroke {1e3 * errors["peak"]:.3g} mm{width}', fontsize=9)
     axes[-1].set_xlabel('time (s)')
     fig.suptitle(title, fontsize=10)
     fig.tight_layout()
@@ -247,11 +312,16 @@ def plot_comparison(record, model, errors, path, title):
     plt.close(fig)
 
 
-def plot_simulation(text, path, title):
-    """Draw each column of ``simulate``'s CSV ``text`` against time to a PNG at ``path``."""
-    lines = text.splitlines()
-    names = lines[0].split(',')
-    table = np.array([[float(v) for v in line.split(',')] for line in lines[1:]], ndmin=2)
+def plot_simulation(text, path, title, limits=None, posterior=None):
+    """Draw each column of ``simulate``'s CSV ``text`` against time to a PNG at ``path``.
+
+    ``limits``: {column: (low, high)} of the posterior band (SI), shaded;
+    ``posterior``: its posterior, whose unmeasured channels are labelled.
+    """
+    from tca_ros.diagnosis.posterior import BAND_LABEL, UNMEASURED_NOTE, unmeasured
+    limits = limits or {}
+    caveat = set(unmeasured(posterior)) if posterior is not None else set()
+    names, table = csv_table(text)
     columns = [n for n in names[1:] if n in UNITS]
     plt = _pyplot()
     fig, axes = plt.subplots(len(columns), 1, figsize=(8, 1.8 * len(columns)), sharex=True,
@@ -263,7 +333,11 @@ def plot_simulation(text, path, title):
             ax.step(table[:, 0], values, where='post', color='tab:red',
                     label=f'{name} (profile input)')
         else:
-            ax.plot(table[:, 0], values, color='tab:blue', label=f'{name} (modelled)')
+            note = f' {UNMEASURED_NOTE}' if name in caveat else ''
+            if name in limits:
+                ax.fill_between(table[:, 0], scale * limits[name][0], scale * limits[name][1],
+                                color='tab:blue', alpha=0.3, lw=0, label=BAND_LABEL + note)
+            ax.plot(table[:, 0], values, color='tab:blue', label=f'{name} (modelled){note}')
         ax.set_ylabel(label)
         ax.legend(fontsize=7, loc='upper right')
     axes[-1, 0].set_xlabel('time (s)')

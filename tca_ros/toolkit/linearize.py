@@ -196,3 +196,37 @@ def linearize(params, power, load=None, model=None, drive='power'):
                        C=central_jacobian(out_x, x0, x_steps),
                        D=central_jacobian(out_u, u0, u_steps),
                        dead_time=params.effects.dead_time)
+
+
+def figure_unit(key):
+    """Return the unit of a drawn_figures key ('power->displacement': 'm/W'; tau: 's')."""
+    if key == 'thermal_time_constant':
+        return 's'
+    inp, output = key.split('->')
+    return f'{OUTPUT_UNITS[output]}/{INPUT_UNITS[inp]}'
+
+
+def drawn_figures(samples, power, load=None):
+    """Return the DC gains and thermal time constant of each params in ``samples``.
+
+    {'figures': {'power->displacement': array, ..., 'thermal_time_constant':
+    array (s)}, 'draws': linearised, 'requested': len(samples)}; a sample whose
+    operating point or linearisation fails is left out. The gains are those of
+    `tca_sim linearize`'s table (unit: figure_unit).
+    """
+    keys = [('power', 'displacement'), ('power', 'temperature'), ('power', 'resistance'),
+            ('load', 'displacement'), ('voltage', 'displacement')]
+    figures = {f'{i}->{o}': [] for i, o in keys}
+    figures['thermal_time_constant'] = []
+    for params in samples:
+        try:
+            plants = {d: linearize(params, power, load, drive=d) for d in ('power', 'voltage')}
+            row = {f'{i}->{o}': plants['voltage' if i == 'voltage' else 'power'].dc_gain(o, i)
+                   for i, o in keys}
+            row['thermal_time_constant'] = plants['power'].thermal_time_constant()
+        except (ValueError, ArithmeticError, np.linalg.LinAlgError):
+            continue
+        for key, value in row.items():
+            figures[key].append(value)
+    return {'figures': {k: np.array(v) for k, v in figures.items()},
+            'draws': len(figures['thermal_time_constant']), 'requested': len(samples)}
