@@ -52,7 +52,7 @@ def band_rate(physics_rate, sample_rate):
     sample rate if higher), unless ``physics_rate`` is lower: each draw is a full
     simulation, and the spread between draws at one rate is what the band needs.
     """
-    from tca_ros.diagnosis.calibration import MIN_PHYSICS_RATE_HZ
+    from tca_ros.diagnosis.predictions import MIN_PHYSICS_RATE_HZ
     return min(physics_rate, max(MIN_PHYSICS_RATE_HZ, sample_rate))
 
 
