@@ -187,6 +187,15 @@ def test_an_isometric_record_calibrates_the_same_params_and_predicts_a_load(tmp_
     assert cal.report.values['actuation_gain'] == pytest.approx(1.3, rel=0.15)
     hanging = bench_record(truth, 0.4, 0.02, rng, drift=0.0)
     assert full_nrmse(cal.params, [hanging], 'cst')[0] < 0.08  # 5.6 % when written
+    # the same from the command line: no lumped model can be fitted on force records
+    out = tmp_path / 'iso_cal.yaml'
+    assert run(['calibrate', *paths, '--config', str(_dump(start, tmp_path)), '--out',
+                str(out), '--model', 'cst', '--quiet'])[0] == 0
+    write_csv_record(hanging, str(tmp_path / 'hanging.csv'))
+    code, text = run(['validate', str(tmp_path / 'hanging.csv'), '--config', str(out),
+                      '--model', 'cst'])
+    row = next(line.split() for line in text.splitlines() if line.startswith('hanging'))
+    assert code == 0 and row[4] == '-' and 'rig dead_weight not calibrated' in text, text
 
 
 def test_simulate_warns_when_a_calibrated_muscle_runs_past_its_calibration(

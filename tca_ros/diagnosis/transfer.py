@@ -56,17 +56,20 @@ def trained_range(cal):
     """Return a JSON-ready dict of what calibration ``cal`` was fitted on.
 
     Peak powers (W), loads (N), rigs, the hottest predicted temperature (degC) and
-    the lumped model (gain m/W, tau s, delay s) fitted on the same records.
+    the lumped model (gain m/W, tau s, delay s) fitted on the same records (those
+    that measure a contraction: none when every record is isometric).
     """
     records = cal.records
-    lumped = fit_lumped(records).values
+    moving = [r for r in records if rig_of(r) != 'isometric']
+    lumped = fit_lumped(moving).values if moving else None
     return {'power_w': [float(np.max(r.power)) for r in records],
             'load_n': [float(np.max(r.load)) for r in records],
             'rig': sorted({rig_of(r) for r in records}),
             'environment': {STILL_AIR: 1.0, **cal.environments},
             'peak_temperature_c': max(peak_temperatures(cal.params, records, cal.model,
                                                         cal.supply, cal.environments)),
-            'lumped': {k: float(lumped[k]) for k in ('gain', 'tau', 'delay')},
+            'lumped': ({k: float(lumped[k]) for k in ('gain', 'tau', 'delay')}
+                       if lumped is not None else None),
             'records': [r.source for r in records]}
 
 
