@@ -28,9 +28,9 @@ setup(
     tests_require=['pytest'],
     entry_points={
         'console_scripts': [
-            'tca_sim = tca_ros.cli:main',
-            'tca_node = tca_ros.node:main',
-            'tca_pid = tca_ros.pid_node:main',
+            'tca_sim = tca_ros.cli.main:main',
+            'tca_node = tca_ros.ros.node:main',
+            'tca_pid = tca_ros.ros.pid_node:main',
         ],
     },
 )

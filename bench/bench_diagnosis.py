@@ -20,9 +20,9 @@ import time
 import numpy as np
 
 from tca_ros.diagnosis import diagnose
-from tca_ros.diagnosis.data import write_csv_record
-from tca_ros.diagnosis.generator import make_synthetic_record
 from tca_ros.model.effects import CATALOGUE
+from tca_ros.records.data import write_csv_record
+from tca_ros.synthetic.generator import make_synthetic_record
 
 NULL = 'none'
 

@@ -2,7 +2,7 @@
 
 Each record comes from a random muscle (geometry and thermal constants +-30 %,
 time constant, rise, actuation gain and damping drawn independently; see
-tca_ros/diagnosis/realistic.py), a random power profile (steps, ramps, PRBS,
+tca_ros/synthetic/realistic.py), a random power profile (steps, ramps, PRBS,
 cooling) under a hanging mass, simulated with the full central-difference
 dynamics at 500 Hz by the rod model for odd seeds and cst for even ones (the
 diagnosis fits cst: half the records are kinetostatically mismatched), sampled
@@ -47,10 +47,10 @@ import time
 import numpy as np
 
 from tca_ros.diagnosis import diagnose
-from tca_ros.diagnosis.realistic import conditions, OUTSIDE, RATES, realistic_case, \
-    realistic_loads, truth_path
 from tca_ros.model.effects import CATALOGUE
 from tca_ros.model.params import dump_params
+from tca_ros.synthetic.realistic import conditions, OUTSIDE, RATES, realistic_case, \
+    realistic_loads, truth_path
 
 EFFECTS = [name for name in CATALOGUE if name != 'coil_contact']
 #: effects whose signature is a nominal parameter that calibration fits (the
@@ -126,11 +126,11 @@ def truth_structured(record_path, truth_file):
     Where even the truth is structured (an unlogged power variation, a
     defect outside the catalogue), no diagnosis can say 'explained'.
     """
-    from tca_ros.diagnosis.data import read_record
     from tca_ros.diagnosis.fitting import FitProblem, TRAIN_FRACTION
     from tca_ros.diagnosis.holdout import choose_validation
     from tca_ros.diagnosis.verdict import channel_stats
     from tca_ros.model.params import load_params
+    from tca_ros.records.data import read_record
     record, truth = read_record(record_path), load_params(truth_file)
     # judged on the held-out part the diagnosis uses (its default layout)
     problem = FitProblem(record, truth, model=truth.model,

@@ -32,7 +32,7 @@ import time
 import numpy as np
 
 from tca_ros.diagnosis import diagnose
-from tca_ros.diagnosis.realistic import conditions, realistic_case
+from tca_ros.synthetic.realistic import conditions, realistic_case
 
 TARGET_MEDIAN_S = 20.0  # CPU s per 240 s / 100 Hz record
 TARGET_WORST_S = 60.0

@@ -46,7 +46,7 @@ def _cpu_seconds(pid):
 
 def _start(log_dir, model, *args, name='tca', config=CONFIG, env=None):
     model_args = ['-p', f'model:={model}'] if model else []
-    node = NodeProcess(module_command('tca_ros.node', [
+    node = NodeProcess(module_command('tca_ros.ros.node', [
         '--params-file', config, *model_args, *args]),
         pathlib.Path(log_dir) / f'{name}.log', env=env)
     node.wait_for_log('tca node ready', timeout=300.0)
@@ -120,7 +120,7 @@ def bench_fastest(log_dir, model, seconds, lockstep=False, reader=True):
                   '-p', f'lockstep:={str(lockstep).lower()}', name=tag)
     pid = None
     if lockstep:
-        pid = NodeProcess(module_command('tca_ros.pid_node', [
+        pid = NodeProcess(module_command('tca_ros.ros.pid_node', [
             '-p', 'use_sim_time:=true', '-p', 'setpoint:=0.002']),
             pathlib.Path(log_dir) / 'pid.log')
     try:

@@ -20,12 +20,12 @@ import time
 
 import numpy as np
 
-from tca_ros.diagnosis.calibration import calibrate
-from tca_ros.diagnosis.calibration_report import format_summary
-from tca_ros.diagnosis.data import read_record
-from tca_ros.diagnosis.validation import format_table, leave_one_condition_out
+from tca_ros.calibration.calibration import calibrate
+from tca_ros.calibration.calibration_report import format_summary
+from tca_ros.calibration.validation import format_table, leave_one_condition_out
 from tca_ros.model.muscle import describe_muscle, MuscleSpec
 from tca_ros.model.params import load_params
+from tca_ros.records.data import read_record
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 DEFAULT_DIR = os.path.normpath(os.path.join(HERE, '..', '..', 'shared', 'realdata',

@@ -32,12 +32,12 @@ from bench_diagnosis_real import _length, _mandrel, REAL_DIR, timed_pool_map
 from bench_real import SALP_MUSCLE
 import numpy as np
 
-from tca_ros.diagnosis.data import read_record, write_csv_record
 from tca_ros.diagnosis.identification import diagnose
-from tca_ros.diagnosis.realistic import ar1
-from tca_ros.diagnosis.record_ops import decimated
 from tca_ros.model.muscle import describe_muscle
 from tca_ros.model.params import dump_params
+from tca_ros.records.data import read_record, write_csv_record
+from tca_ros.records.record_ops import decimated
+from tca_ros.synthetic.realistic import ar1
 
 DEFAULT_RECORDS = ('1W_encoder_4', '2W_encoder_1.csv', '3W_encoder_2a')
 VARIANTS = ('as is', '1 Hz', 'two cycles', 'analog sensor', 'description 30 g', 'cst')

@@ -1,6 +1,6 @@
 """Score table of the reference controller on the default tasks (printed, not asserted).
 
-tca_pid's law (tca_ros.pid_node.PidController with its default gains, 2 W limit) against
+tca_pid's law (tca_ros.ros.pid_node.PidController with its default gains, 2 W limit) against
 TcaSimulator in-process, the node's lockstep loop at 100 Hz with 1 kHz physics, on the
 task set of tca_ros.toolkit.tasks (version printed). With --out, one PNG per task.
 
@@ -11,7 +11,7 @@ import os
 import time
 
 from tca_ros.model.params import load_params
-from tca_ros.pid_node import PARAMETERS, PidController
+from tca_ros.ros.pid_node import PARAMETERS, PidController
 from tca_ros.toolkit.scoring import format_table, law_controller, run_tasks
 from tca_ros.toolkit.tasks import DEFAULT_TASKS, TASKS_VERSION
 

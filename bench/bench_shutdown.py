@@ -45,7 +45,7 @@ MAX_RUN = 0.2  # s, longest time a node publishes before its signal
 def _executable(path):
     """Return the command of tca_node: the given path, the venv's script, or the module."""
     exe = path or shutil.which('tca_node', path=str(pathlib.Path(PYTHON).parent))
-    return [exe] if exe else [PYTHON, '-m', 'tca_ros.node']
+    return [exe] if exe else [PYTHON, '-m', 'tca_ros.ros.node']
 
 
 def _stop(node, sig):

@@ -21,12 +21,12 @@ import time
 
 import numpy as np
 
-from tca_ros.diagnosis.calibration import calibrate, DEFAULT_FIT
-from tca_ros.diagnosis.data import read_record
-from tca_ros.diagnosis.lumped import fit_lumped, lumped_nrmse
-from tca_ros.diagnosis.predictions import full_nrmse
-from tca_ros.diagnosis.validation import condition_of, repeat_floor
+from tca_ros.calibration.calibration import calibrate, DEFAULT_FIT
+from tca_ros.calibration.lumped import fit_lumped, lumped_nrmse
+from tca_ros.calibration.predictions import full_nrmse
+from tca_ros.calibration.validation import condition_of, repeat_floor
 from tca_ros.model.muscle import describe_muscle, MuscleSpec
+from tca_ros.records.data import read_record
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 REAL = os.path.normpath(os.path.join(HERE, '..', '..', 'shared', 'realdata'))

@@ -31,19 +31,19 @@ os.environ.setdefault('MPLBACKEND', 'Agg')
 
 import numpy as np  # noqa: E402
 
-from tca_ros.cli import main, MESSAGE_CHARS  # noqa: E402
-from tca_ros.diagnosis import diagnose  # noqa: E402, F401 (loaded before forking)
-from tca_ros.diagnosis.data import read_record  # noqa: E402
-from tca_ros.model.params import config_dir  # noqa: E402
 # what the children import on their way: loaded once here, shared by every fork
-import tca_ros.diagnosis.calibration  # noqa: E402, F401, I100, I202
+import tca_ros.calibration.calibration  # noqa: E402, F401, I100, I202
+from tca_ros.cli.main import main, MESSAGE_CHARS  # noqa: E402
+from tca_ros.diagnosis import diagnose  # noqa: E402, F401 (loaded before forking)
 import tca_ros.diagnosis.fitting  # noqa: E402, F401
+from tca_ros.model.params import config_dir  # noqa: E402
 import tca_ros.model.rig_simulation  # noqa: E402, F401
+from tca_ros.records.data import read_record  # noqa: E402
 
 # A hang is a run past its stated limit, measured in CPU seconds of the child (the
 # machine is shared: wall time there says more about the neighbours than about tca_sim).
-# simulate and statics: the limits in cli.py keep a run under 30 s of CPU; diagnose: its
-# steps limit allows about 500 s (cli.py); the records here are 4 s at most (a few
+# simulate and statics: the limits in cli/main.py keep a run under 30 s of CPU; diagnose: its
+# steps limit allows about 500 s (cli/main.py); the records here are 4 s at most (a few
 # thousand steps), so 300 s of CPU is far past anything they may take.
 CPU_LIMIT_S = {'simulate': 30.0, 'statics': 30.0, 'diagnose': 300.0}
 WALL_CAP_S = 1800.0  # s of wall time after which a child is killed whatever its CPU time
@@ -408,7 +408,7 @@ def build_case(family, k, seed, folder, bags, fixed):
 
 def subprocess_check(argv, folder, res):
     """Rerun argv as a real `tca_sim` process; return its (exit status, error line)."""
-    proc = subprocess.run([sys.executable, '-m', 'tca_ros.cli', *argv], cwd=folder,
+    proc = subprocess.run([sys.executable, '-m', 'tca_ros.cli.main', *argv], cwd=folder,
                           stdin=subprocess.DEVNULL, capture_output=True, timeout=WALL_CAP_S)
     return proc.returncode, proc.stderr.decode('utf-8', 'replace').strip()[:300]
 
@@ -533,7 +533,7 @@ def table(results, wall, skipped):
                       f'; exit 0 identical {same}, altered {altered}; outcome of the intact '
                       f'record reused {reused}')
     checked = [r['subprocess_agrees'] for r in results if 'subprocess_agrees' in r]
-    print(f'\nsubprocess sample: {len(checked)} cases rerun as `python -m tca_ros.cli`, '
+    print(f'\nsubprocess sample: {len(checked)} cases rerun as `python -m tca_ros.cli.main`, '
           f'{sum(checked)} with the same exit status and error line')
     print(f'{len(results)} cases in {wall:.0f} s wall, '
           f'{sum(r["cpu"] for r in results):.0f} s CPU in the children'

@@ -51,7 +51,7 @@ from std_msgs.msg import Float64  # noqa: E402
 from std_srvs.srv import Trigger  # noqa: E402
 
 from tca_ros.model.params import SCHEMA  # noqa: E402
-from tca_ros.node import NODE_SCHEMA  # noqa: E402
+from tca_ros.ros.node import NODE_SCHEMA  # noqa: E402
 from test_node_harness import (  # noqa: E402, I100, I201
     CONFIG, module_command, NodeProcess, Probe)
 
@@ -71,7 +71,7 @@ def _node_process(args, ros_args, log):
     if args.code:
         cwd = pathlib.Path(args.code).resolve()
         env['PYTHONPATH'] = str(cwd)
-    return NodeProcess(module_command('tca_ros.node', ros_args), log, env=env,
+    return NodeProcess(module_command('tca_ros.ros.node', ros_args), log, env=env,
                        **({'cwd': cwd} if cwd else {}))
 
 

@@ -4,8 +4,8 @@ A generated block in a doc starts with ``<!-- BEGIN GENERATED: NAME ... -->`` an
 with ``<!-- END GENERATED: NAME -->``; everything between is replaced by TABLES[NAME].
 The tables are read from the catalogue of effects (tca_ros.model.effects.CATALOGUE),
 the parameter schema (tca_ros.model.params_schema.SCHEMA: units, defaults, ranges),
-the diagnosis's search spaces (tca_ros.diagnosis.candidates), the synthetic
-generator's ranges (tca_ros.diagnosis.generator) and the joint stage's families
+the diagnosis's search spaces (tca_ros.calibration.candidates), the synthetic
+generator's ranges (tca_ros.synthetic.generator) and the joint stage's families
 (tca_ros.diagnosis.joint.FAMILIES). The example blocks (EXAMPLES) are what
 `tca_sim diagnose` prints on the shipped example record; they take about a minute, so
 only ``--examples`` runs them, and their run time line is compared without its
@@ -26,13 +26,13 @@ import re
 import sys
 import tempfile
 
-from tca_ros.cli import main as tca_sim
-from tca_ros.diagnosis import candidates as cand
-from tca_ros.diagnosis import generator as gen
+from tca_ros.calibration import candidates as cand
+from tca_ros.cli.main import main as tca_sim
 from tca_ros.diagnosis.joint import FAMILIES
 from tca_ros.model.effects import CATALOGUE
 from tca_ros.model.params import load_params
 from tca_ros.model.params_schema import SPECS
+from tca_ros.synthetic import generator as gen
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 #: Docs holding generated blocks, relative to the repository root.

@@ -19,10 +19,10 @@ import os
 
 import numpy as np
 
-from tca_ros.diagnosis.data import write_csv_record
-from tca_ros.diagnosis.record import Record
 from tca_ros.model.params import GRAVITY, load_params
 from tca_ros.model.simulation import simulate
+from tca_ros.records.data import write_csv_record
+from tca_ros.records.record import Record
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 DEFAULT_OUT = os.path.normpath(os.path.join(HERE, '..', 'tca_ros', 'data', 'examples'))

@@ -18,7 +18,7 @@ from bench_diagnosis_real import REAL_DIR
 import numpy as np
 from scipy.optimize import curve_fit
 
-from tca_ros.diagnosis.data import read_record
+from tca_ros.records.data import read_record
 
 
 def step_shapes(record):

@@ -5,7 +5,7 @@
 Needs a ROS 2 Jazzy install (launch, launch_ros, tf2_ros, rviz2); PyPI has none of them.
 Each muscle is one ``tca_node`` in its namespace with a shipped params file. The node
 names its frames after its namespace (``finger1/tca_base``, see
-``tca_ros.node_params.namespaced_name``) but publishes no TF, so one
+``tca_ros.ros.node_params.namespaced_name``) but publishes no TF, so one
 ``static_transform_publisher`` per muscle places that clamp frame in ``world``, the
 muscles side by side along x. RViz opens ``rviz/tca.rviz``: Fixed Frame ``world``, one
 Marker display per muscle on ``/<namespace>/shape``, and TF.

@@ -5,7 +5,7 @@ paper's free-stroke TCA, unmeasurable parameters drawn independently of the
 priors) simulated with the central-difference dynamics (18) at 500 Hz; the fit
 uses the quasi-static reduction. Records are 5 Hz, power logged as nominal W x
 on/off, AR(1) coloured + white noise, 8.4 um encoder quantisation, no
-temperature (tca_ros.diagnosis.realistic).
+temperature (tca_ros.synthetic.realistic).
 """
 import dataclasses
 import math
@@ -14,16 +14,16 @@ import os
 import numpy as np
 import pytest
 
-from tca_ros.cli import main
-from tca_ros.diagnosis import engine
-from tca_ros.diagnosis.calibration import apply_calibration, calibrate
-from tca_ros.diagnosis.data import write_csv_record
-from tca_ros.diagnosis.lumped import fit_lumped, lumped_response
-from tca_ros.diagnosis.realistic import bench_record, realistic_set
+from tca_ros.calibration import engine
+from tca_ros.calibration.calibration import apply_calibration, calibrate
+from tca_ros.calibration.lumped import fit_lumped, lumped_response
+from tca_ros.cli.main import main
 from tca_ros.model.muscle import describe_muscle, MuscleSpec
 from tca_ros.model.params import dump_params, GRAVITY, load_params
 from tca_ros.model.simulation import simulate
 from tca_ros.model.thermal import heat_capacity, thermal_conductance
+from tca_ros.records.data import write_csv_record
+from tca_ros.synthetic.realistic import bench_record, realistic_set
 
 from conftest import once_per_worker  # noqa: I100
 
@@ -105,9 +105,9 @@ def test_a_real_calibration_is_continuous_in_its_data():
     # off along a flat valley), read as it is and with its displacements rounded to
     # 0.5 um. With the least determined parameter reset to its prior (the engine before
     # 2026-12-02) the two ended at gain 0.43 and 1.00, rise 110 and 73 K/W.
-    from tca_ros.diagnosis.data import read_record
     from tca_ros.diagnosis.nominal import CALIBRATION_RATE_HZ
-    from tca_ros.diagnosis.record_ops import decimated, leading_part
+    from tca_ros.records.data import read_record
+    from tca_ros.records.record_ops import decimated, leading_part
     record = read_record(REAL_RECORD)
     rounded = dataclasses.replace(record, displacement=np.array(
         [float(f'{x:.4e}') for x in record.displacement]))
@@ -230,7 +230,7 @@ def test_cli_calibrate_writes_a_params_file_the_simulator_accepts(tmp_path, caps
 
 def test_the_damping_bound_is_ten_times_critical_or_ten_times_the_start():
     # a 10 g weight on the free-stroke coil: k about 24 N/m, critical 2 sqrt(k m)
-    from tca_ros.diagnosis.calibration import damping_bound, MAX_DAMPING_RATIO
+    from tca_ros.calibration.calibration import damping_bound, MAX_DAMPING_RATIO
     from tca_ros.model.end_motion import critical_damping
     from tca_ros.model.params import GRAVITY, load_params
     params = load_params('free_stroke').with_values(**{

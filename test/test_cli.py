@@ -4,7 +4,7 @@ import io
 import numpy as np
 import pytest
 
-from tca_ros.cli import main, read_profile
+from tca_ros.cli.main import main, read_profile
 
 
 def run(argv):

@@ -13,8 +13,8 @@ import time
 import numpy as np
 import pytest
 
-from tca_ros.cli import main, MAX_CONICAL_SHAPES, MAX_POWER_W, MESSAGE_CHARS
-from tca_ros.diagnosis.residuals import heating_mask
+from tca_ros.calibration.residuals import heating_mask
+from tca_ros.cli.main import main, MAX_CONICAL_SHAPES, MAX_POWER_W, MESSAGE_CHARS
 from tca_ros.model.params import config_dir
 
 FAST_S = 5.0  # s: a refusal is decided before any simulation, well within this
@@ -216,7 +216,7 @@ def test_byte_order_mark_is_accepted(tmp_path, capsys):
     code, out, err, _ = run(SIMULATE + [path, '--rate', '10'], capsys)
     assert code == 0 and len(out.splitlines()) == 12, err
     rec = record(tmp_path, prefix=b'\xef\xbb\xbf', name='bom.csv')
-    from tca_ros.diagnosis.data import read_record
+    from tca_ros.records.data import read_record
     assert read_record(rec).meta['tca'] == 'free_stroke'
 
 
@@ -298,7 +298,7 @@ def test_a_missing_path_is_not_read_as_the_shipped_config(tmp_path, capsys, conf
 
 
 def test_record_header_may_name_a_params_file_beside_it(tmp_path):
-    from tca_ros.diagnosis.data import read_record, record_config
+    from tca_ros.records.data import read_record, record_config
     shutil.copy(pathlib.Path(config_dir()) / 'free_stroke.yaml', tmp_path / 'mine.yaml')
     rec = read_record(record(tmp_path, tca='mine'))
     assert record_config(rec) == str(tmp_path / 'mine.yaml')

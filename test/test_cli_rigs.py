@@ -3,7 +3,7 @@ import io
 
 import numpy as np
 
-from tca_ros.cli import main
+from tca_ros.cli.main import main
 from tca_ros.model.kinetostatic_models import make_kinetostatic_model
 from tca_ros.model.params import load_params
 from tca_ros.model.rig_statics import isometric_force

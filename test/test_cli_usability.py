@@ -18,8 +18,8 @@ import sys
 import numpy as np
 import pytest
 
-from tca_ros.cli import build_parser, main
-from tca_ros.cli_common import EXIT_EVENT, package_version
+from tca_ros.cli.common import EXIT_EVENT, package_version
+from tca_ros.cli.main import build_parser, main
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 
@@ -52,7 +52,7 @@ SUBCOMMANDS = [path for path, _ in parsers() if path]
 def test_an_unknown_flag_is_refused_by_its_subcommand_in_a_real_process(tmp_path):
     profile = tmp_path / 'p.csv'
     profile.write_text('time,power\n0,1\n1,0\n')
-    proc = subprocess.run([sys.executable, '-m', 'tca_ros.cli', 'simulate', '--input',
+    proc = subprocess.run([sys.executable, '-m', 'tca_ros.cli.main', 'simulate', '--input',
                            str(profile), '--masss', '1'], capture_output=True, text=True,
                           env={**os.environ, 'PYTHONPATH': str(ROOT)}, timeout=120)
     assert proc.returncode == 2 and proc.stdout == ''

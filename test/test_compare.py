@@ -7,10 +7,10 @@ import pathlib
 
 import pytest
 
-from tca_ros.cli import main
-from tca_ros.diagnosis.data import read_record
-from tca_ros.examples import EXAMPLES_DIR, resolve_example, shipped_examples
+from tca_ros.cli.main import main
 from tca_ros.model.params import dump_params, load_params
+from tca_ros.records.data import read_record
+from tca_ros.records.examples import EXAMPLES_DIR, resolve_example, shipped_examples
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 PNG_MAGIC = b'\x89PNG\r\n\x1a\n'
@@ -142,7 +142,7 @@ def test_a_bad_supply_header_is_named(tmp_path, capsys):
 
 def test_a_record_without_temperature_leaves_its_error_empty(tmp_path):
     from dataclasses import replace
-    from tca_ros.diagnosis.data import write_csv_record
+    from tca_ros.records.data import write_csv_record
     record = read_record(resolve_example('rec_1W_50g'))
     bare = tmp_path / 'no_thermometer.csv'
     write_csv_record(replace(record, temperature=None), str(bare))

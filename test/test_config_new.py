@@ -6,7 +6,7 @@ import os
 import numpy as np
 import pytest
 
-from tca_ros.cli import main
+from tca_ros.cli.main import main
 from tca_ros.model.coil_geometry import coil_count, contact_pitch_angle
 from tca_ros.model.kinetostatic_models import make_kinetostatic_model
 from tca_ros.model.kinetostatics import natural_length

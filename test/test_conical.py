@@ -11,7 +11,7 @@ import pathlib
 import numpy as np
 import pytest
 
-from tca_ros.cli import main
+from tca_ros.cli.main import main
 from tca_ros.model.conical import conical_end_height, HANGING, hanging_statics
 from tca_ros.model.kinetostatic_models import make_kinetostatic_model
 from tca_ros.model.params import load_params

@@ -11,7 +11,7 @@ import math
 import numpy as np
 import pytest
 
-from tca_ros.cli import main
+from tca_ros.cli.main import main
 from tca_ros.model.kinetostatic_models import make_kinetostatic_model
 from tca_ros.model.kinetostatics import contact_elongation
 from tca_ros.model.params import dump_params, GRAVITY, ParameterError, to_flat_dict

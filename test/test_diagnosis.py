@@ -14,11 +14,11 @@ import numpy as np
 import pytest
 
 from tca_ros.diagnosis import DataError, diagnose, format_summary
-from tca_ros.diagnosis.data import write_csv_record
-from tca_ros.diagnosis.generator import make_synthetic_record
 from tca_ros.model.effects import CATALOGUE
 from tca_ros.model.params import load_params
 from tca_ros.model.simulation import simulate
+from tca_ros.records.data import write_csv_record
+from tca_ros.synthetic.generator import make_synthetic_record
 
 DURATION_S = 150.0  # long enough for creep retardation times up to 60 s
 RATE_HZ = 20.0
@@ -177,7 +177,7 @@ def test_mcap_recording_is_diagnosed_like_a_csv(tmp_path):
 
 
 def test_parameters_at_a_bound_of_their_range_are_flagged():
-    from tca_ros.diagnosis.candidates import build_candidates, parameters_at_bounds
+    from tca_ros.calibration.candidates import build_candidates, parameters_at_bounds
     cands = build_candidates(load_params('free_stroke'), 'cst', 0.2, 0.01)
     found = ['ambient_offset', 'sensor_lag', 'friction']
     values = {'effects.ambient_offset': -15.0, 'effects.sensor_lag': 2.99,
@@ -195,7 +195,7 @@ def test_an_effect_that_explains_a_record_only_at_its_bound_is_not_named(
     # the hidden-offset record of test_hidden_effect_is_named_with_a_heldout_gain, with the
     # offset's range ending just above its true value: the fit explains the record at the
     # end of the range, which says the catalogue's physical range was too small for it
-    from tca_ros.diagnosis import candidates
+    from tca_ros.calibration import candidates
     synth, path = _record(tmp_path, 100 + EFFECTS.index('ambient_offset'), ['ambient_offset'])
     true = synth.values['effects.ambient_offset']
     space, starts = candidates._SPACES['effects.ambient_offset']

@@ -2,8 +2,8 @@
 import numpy as np
 import pytest
 
-from tca_ros.diagnosis.data import DataError, read_bag_record, read_record
 from tca_ros.model.params import GRAVITY, load_params
+from tca_ros.records.data import DataError, read_bag_record, read_record
 
 RATE = 20.0  # Hz, the joint_states rate of the bags below
 N = 60  # joint_states messages

@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from tca_ros.diagnosis.data import DataError, read_bag_record, read_record, Record, \
+from tca_ros.records.data import DataError, read_bag_record, read_record, Record, \
     uniform_record, write_csv_record
 
 HEADER = '# tca: free_stroke\n# mass_kg: 0.03\n# sample_rate_hz: 10\n'

@@ -4,8 +4,8 @@ import pytest
 
 from tca_ros.diagnosis.holdout import choose_validation, coolings, make_holdout, mask_runs
 from tca_ros.diagnosis.noise import heldout_deviance_gain, structure_test
-from tca_ros.diagnosis.realistic import ar1
 from tca_ros.diagnosis.regressors import input_terms_in_runs
+from tca_ros.synthetic.realistic import ar1
 
 RATE = 5.0  # Hz
 
@@ -37,7 +37,7 @@ def test_the_tail_layout_holds_out_the_end_and_bad_layouts_are_named():
 
 
 def test_auto_keeps_the_tail_when_its_training_part_has_seen_two_coolings():
-    from tca_ros.diagnosis.record import Record
+    from tca_ros.records.record import Record
     time = np.arange(0.0, 80.0, 0.2)
 
     def record(power):
@@ -118,9 +118,9 @@ def test_friction_in_a_one_step_record_of_another_plant_is_named_at_its_size(tmp
     # fitted with the rod model. Friction shows first in the cooling (the end held up);
     # the held-out blocks let the calibration see a cooling and judge another
     from tca_ros.diagnosis import diagnose
-    from tca_ros.diagnosis.data import write_csv_record
-    from tca_ros.diagnosis.realistic import bench_record, realistic_set
     from tca_ros.model.params import dump_params
+    from tca_ros.records.data import write_csv_record
+    from tca_ros.synthetic.realistic import bench_record, realistic_set
     s = realistic_set(15, drift=0.0)
     rng = np.random.default_rng(115)
     truth = s.truth.with_values(**{'effects.friction_force': 0.015})

@@ -10,11 +10,11 @@ import shutil
 import types
 
 import tca_ros
-from tca_ros.cli import main
+from tca_ros.calibration.physical_priors import Plausibility
+from tca_ros.cli.main import main
 from tca_ros.diagnosis import diagnose, format_summary
 from tca_ros.diagnosis.parameter_names import format_nominal, nominal_value, \
     plausibility_lines
-from tca_ros.diagnosis.physical_priors import Plausibility
 from tca_ros.model.params import load_params
 from tca_ros.model.thermal import fiber_mass
 
@@ -48,7 +48,7 @@ def test_nominal_entries_print_as_the_calibration_names_them():
 def test_a_shift_beyond_two_prior_spreads_is_a_finding_with_what_it_can_stand_for():
     def row(name, z):
         return Plausibility(name, 'W/K', 0.02, 0.0133, z, 0.0136, '', 0.004, 0.04, False)
-    from tca_ros.diagnosis.physical_priors import stands_for
+    from tca_ros.calibration.physical_priors import stands_for
     rows = [row('heat_loss', 2.1), row('stiffness_scale', 1.9)]
     cal = types.SimpleNamespace(  # Calibration.findings: the shifted rows, tau moved
         plausibility=lambda: rows, derived=lambda: {},

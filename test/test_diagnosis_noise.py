@@ -7,8 +7,8 @@ import pytest
 from tca_ros.diagnosis.noise import (
     ar_fit, ar_order, heldout_deviance_gain, quantisation_sigma, quantisation_step,
     structure_test)
-from tca_ros.diagnosis.realistic import ar1
 from tca_ros.diagnosis.regressors import first_order_lag, input_terms, remove_nuisance
+from tca_ros.synthetic.realistic import ar1
 
 RATE = 20.0  # Hz
 N = 2400  # 120 s

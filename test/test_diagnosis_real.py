@@ -12,12 +12,12 @@ import numpy as np
 import pytest
 
 from tca_ros.diagnosis import diagnose, format_summary
-from tca_ros.diagnosis.data import write_csv_record
-from tca_ros.diagnosis.realistic import bench_record, realistic_case, realistic_loads, \
-    realistic_set
 from tca_ros.diagnosis.verdict import ONE_LOAD_NOTE
 from tca_ros.model.params import dump_params, GRAVITY
 from tca_ros.model.simulation import simulate
+from tca_ros.records.data import write_csv_record
+from tca_ros.synthetic.realistic import bench_record, realistic_case, realistic_loads, \
+    realistic_set
 
 from conftest import once_per_worker  # noqa: I100
 
@@ -138,7 +138,7 @@ def test_realistic_fatigue_outside_the_catalogue_is_unexplained(tmp_path):
 
 def test_several_records_of_one_muscle_are_diagnosed_together(tmp_path, capsys):
     # three step records of one random muscle (1-3 powers), one calibration, no effect
-    from tca_ros.cli import main
+    from tca_ros.cli.main import main
     s = realistic_set(41, drift=0.0)
     start = tmp_path / 'start.yaml'
     dump_params(s.start, str(start))
@@ -233,8 +233,8 @@ def test_a_hidden_friction_is_fitted_at_its_force_without_spoiling_the_temperatu
     # refitted damping (docs/decisions.md G12, G13) friction came out at 13.1 mN (truth
     # 15.1 mN; 7.3 mN with the fit scales alone) and the extended model's held-out
     # temperature error at 1.43 K (nominal 0.24 K).
-    from tca_ros.diagnosis.realistic import truth_path
     from tca_ros.model.params import load_params
+    from tca_ros.synthetic.realistic import truth_path
     path, start = realistic_case(9044, ['friction'], str(tmp_path))
     truth = load_params(truth_path(str(tmp_path), 9044)).effects.friction_force
     result = diagnose(path, start, progress=False)
@@ -252,7 +252,7 @@ def test_a_second_thermal_lag_the_calibration_took_as_damping_is_fitted_at_its_t
     # seed 1040 of bench_diagnosis.py: calibrate-first takes the 3.8 s lag up as a damping
     # of 20.5 N s/m; before the hand-over (docs/decisions.md G13, G14) the refit raised
     # that to 61.6 N s/m and the second lag was fitted at 0.39 s
-    from tca_ros.diagnosis.generator import make_synthetic_record
+    from tca_ros.synthetic.generator import make_synthetic_record
     synth = make_synthetic_record(1040, effects=['second_thermal_lag'], n_effects=1,
                                   duration=240.0, sample_rate=100.0)
     path = str(tmp_path / 'record_1040.csv')
@@ -272,8 +272,8 @@ def test_a_creep_the_calibration_took_as_softness_is_found_by_a_joint_calibratio
     # (x/÷ 2 on the stiffness) calibrate-first took the creep up as a coil seven times too
     # soft (stiffness scale 0.14) and only a joint calibration found it; with the physical
     # prior (x/÷ 1.5) the stiffness stays plausible and the search names creep itself.
-    from tca_ros.diagnosis.realistic import truth_path
     from tca_ros.model.params import load_params
+    from tca_ros.synthetic.realistic import truth_path
     path, start = realistic_case(9014, ['creep'], str(tmp_path))
     truth = load_params(truth_path(str(tmp_path), 9014)).effects
     result = diagnose(path, start, progress=False)
@@ -295,8 +295,8 @@ def test_two_effects_no_single_one_explains_are_found_by_a_joint_pair(tmp_path, 
     # but leaves structure; the pair, calibrated jointly, explains it (docs/diagnosis_method.md).
     # Without the pair stage the same record is not explained.
     from tca_ros.diagnosis import joint
-    from tca_ros.diagnosis.realistic import truth_path
     from tca_ros.model.params import load_params
+    from tca_ros.synthetic.realistic import truth_path
     hidden = ['ambient_offset', 'second_thermal_lag']
     path, start = realistic_case(9200, hidden, str(tmp_path), plant='rod')
     truth = load_params(truth_path(str(tmp_path), 9200)).effects

@@ -1,8 +1,8 @@
 """family_rival_notes: an effect the search names, and the family rivals that fit as well."""
 from types import SimpleNamespace
 
+from tca_ros.calibration.candidates import Candidate
 from tca_ros.diagnosis import joint
-from tca_ros.diagnosis.candidates import Candidate
 from tca_ros.diagnosis.joint import family_rival_notes, JointFit
 
 

@@ -12,12 +12,12 @@ import math
 import numpy as np
 import pytest
 
-from tca_ros.diagnosis.candidates import build_candidates
+from tca_ros.calibration.candidates import build_candidates
 from tca_ros.diagnosis.fitting import FitProblem, STOP
-from tca_ros.diagnosis.generator import make_synthetic_record
 from tca_ros.model.dynamics import TcaSimulator
 from tca_ros.model.params import load_params
 from tca_ros.model.simulation import simulate
+from tca_ros.synthetic.generator import make_synthetic_record
 
 
 @pytest.fixture(scope='module')

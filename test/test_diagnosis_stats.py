@@ -4,8 +4,8 @@ import math
 import numpy as np
 import pytest
 
-from tca_ros.diagnosis.candidates import ParameterSpace
-from tca_ros.diagnosis.residuals import cross_correlation_lag, effective_samples, \
+from tca_ros.calibration.candidates import ParameterSpace
+from tca_ros.calibration.residuals import cross_correlation_lag, effective_samples, \
     ljung_box, noise_sigma, spectral_flatness
 
 
@@ -55,7 +55,7 @@ def test_parameter_space_round_trip(space):
 
 
 def test_power_loss_is_not_searched_beside_a_refitted_delivered_power_ratio():
-    from tca_ros.diagnosis.candidates import absorbed_candidates, build_candidates, \
+    from tca_ros.calibration.candidates import absorbed_candidates, build_candidates, \
         recalibration_spaces
     from tca_ros.model.params import load_params
     params = load_params('free_stroke', model='cst')
@@ -68,7 +68,7 @@ def test_power_loss_is_not_searched_beside_a_refitted_delivered_power_ratio():
 
 
 def test_the_damping_is_refitted_around_its_value_and_left_fixed_at_zero():
-    from tca_ros.diagnosis.candidates import recalibration_spaces
+    from tca_ros.calibration.candidates import recalibration_spaces
     from tca_ros.model.params import load_params
     params = load_params('free_stroke', model='cst')
     spaces, values = recalibration_spaces(params)
@@ -88,7 +88,7 @@ def test_a_calibrated_params_file_without_damping_is_diagnosed(tmp_path, capsys)
     # division by zero)", exit status 1
     import pathlib
     import tca_ros
-    from tca_ros.cli import main
+    from tca_ros.cli.main import main
     from tca_ros.model.params import dump_params, load_params
     params = tmp_path / 'no_damping.yaml'
     dump_params(load_params('free_stroke').with_values(**{'dynamics.damping': 0.0}),
@@ -145,12 +145,12 @@ def test_adequate_needs_no_structure_on_the_whole_record_either():
 def test_a_lag_effect_is_also_screened_with_the_dampings_lag_handed_over():
     # the calibration takes a non-viscous lag up as damping (b_t / k, s): a lag effect is
     # also screened with a tenth of the damping and the lag that removes as its start
-    from tca_ros.diagnosis.calibration import coil_stiffness
-    from tca_ros.diagnosis.candidates import recalibration_spaces
+    from tca_ros.calibration.calibration import coil_stiffness
+    from tca_ros.calibration.candidates import recalibration_spaces
     from tca_ros.diagnosis.fitting import FitProblem
-    from tca_ros.diagnosis.generator import make_synthetic_record
     from tca_ros.diagnosis.search import _lag_exchange, EXCHANGE_FACTOR
     from tca_ros.model.params import load_params
+    from tca_ros.synthetic.generator import make_synthetic_record
     record = make_synthetic_record(5, effects=None, duration=60.0, sample_rate=10.0).record
     params = load_params('free_stroke', model='cst').with_values(**{'dynamics.damping': 20.0})
     problem = FitProblem(record, params, model='cst')
@@ -168,7 +168,7 @@ def test_the_joint_calibration_takes_the_first_rounds_best_and_the_lag_siblings(
     # geometry, not calibrated); with a member of a family among them (the lags, the play
     # operators) the rest of its family follows
     from types import SimpleNamespace
-    from tca_ros.diagnosis.candidates import build_candidates
+    from tca_ros.calibration.candidates import build_candidates
     from tca_ros.diagnosis.joint import joint_order, JOINT_TOP
     from tca_ros.diagnosis.search import SearchRound
     from tca_ros.model.params import load_params
@@ -193,7 +193,7 @@ def test_pairs_start_from_single_joint_fits_that_help_and_take_partners_outside_
     # lead the search added takes its partners from the round based on it, another
     # from the first round; never its own family or coil contact; no lead, no pair
     from types import SimpleNamespace
-    from tca_ros.diagnosis.candidates import build_candidates
+    from tca_ros.calibration.candidates import build_candidates
     from tca_ros.diagnosis.joint import JointFit, MAX_PAIRS, pair_order
     from tca_ros.diagnosis.search import SearchRound
     from tca_ros.model.params import load_params
@@ -240,10 +240,10 @@ def test_a_calibration_fits_a_catalogue_effect_parameter_named_in_fit(tmp_path):
     # the joint calibration's building block: a creep compliance calibrated with the
     # nominal parameters on a record of a creeping muscle simulated by the rod model
     # (the fit runs cst) from a perturbed description
-    from tca_ros.diagnosis.calibration import calibrate, CalibrationError
+    from tca_ros.calibration.calibration import calibrate, CalibrationError
     from tca_ros.model.params import GRAVITY, load_params
     from tca_ros.model.simulation import simulate
-    from tca_ros.diagnosis.record import Record
+    from tca_ros.records.record import Record
     base = load_params('free_stroke')
     truth = base.with_values(**{'effects.creep_compliance': 0.006,
                                 'effects.creep_time_constant': 30.0,
@@ -297,8 +297,8 @@ def test_a_joint_fit_is_taken_only_when_it_explains_and_beats_the_nominal(monkey
 
 
 def test_one_load_is_a_single_load_level_over_all_records():
-    from tca_ros.diagnosis.record import Record
     from tca_ros.diagnosis.verdict import holds_one_load
+    from tca_ros.records.record import Record
 
     def record(load):
         n = len(load)

@@ -4,8 +4,8 @@ import re
 
 import pytest
 
+from tca_ros.calibration.residuals import ResidualStats
 from tca_ros.diagnosis.noise import MAX_NOISE_SHARE, STRUCTURE_ALPHA, StructureTest
-from tca_ros.diagnosis.residuals import ResidualStats
 from tca_ros.diagnosis.verdict import decide_verdict
 from tca_ros.diagnosis.verdict_text import channel_clause
 

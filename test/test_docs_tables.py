@@ -4,7 +4,7 @@ import pathlib
 
 import pytest
 
-from tca_ros.diagnosis.candidates import RECALIBRATION
+from tca_ros.calibration.candidates import RECALIBRATION
 from tca_ros.model.effects import CATALOGUE
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]

@@ -10,7 +10,7 @@ import control
 import numpy as np
 import pytest
 
-from tca_ros.cli import main
+from tca_ros.cli.main import main
 from tca_ros.model.dynamics import TcaSimulator
 from tca_ros.model.params import dump_params, GRAVITY, with_effects
 from tca_ros.model.resistance import power_from_voltage
@@ -223,7 +223,7 @@ def test_cli_linearize_refuses_hysteresis(tmp_path, capsys, free_stroke):
 def test_toolkit_imports_neither_rclpy_nor_matplotlib():
     code = ('import sys, tca_ros.toolkit.linearize, tca_ros.toolkit.envs; '
             'print(sorted(m for m in sys.modules if '
-            "m.split('.')[0] in ('rclpy', 'matplotlib') or m.startswith('tca_ros.node')))")
+            "m.split('.')[0] in ('rclpy', 'matplotlib') or m.startswith('tca_ros.ros.node')))")
     out = subprocess.run([sys.executable, '-c', code], capture_output=True, text=True,
                          check=True).stdout.strip()
     assert out == '[]'

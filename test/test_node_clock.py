@@ -30,7 +30,7 @@ def _closed_loop_run(log_dir, tag):
         tca.stop()
         probe.close()
         raise
-    pid = NodeProcess(module_command('tca_ros.pid_node', [
+    pid = NodeProcess(module_command('tca_ros.ros.pid_node', [
         '-p', 'use_sim_time:=true', '-p', f'setpoint:={SETPOINT}']), log_dir / f'pid_{tag}.log')
     try:
         pid.wait_for_log('tca_pid ready')

@@ -1,4 +1,4 @@
-"""The node's episode without ROS: tca_ros.node_core.NodeCore and node_episode.Episode.
+"""The node's episode without ROS: tca_ros.ros.node_core.NodeCore and node_episode.Episode.
 
 Commands and their clamps, the watchdog, the limits, a thread break, physics failures
 and resets, the node clock's catch-up and its wall-time budget, the own clock in
@@ -13,18 +13,19 @@ import types
 
 import pytest
 
-from tca_ros import node_core
 from tca_ros.model.params import from_flat_dict, load_params, SCHEMA, to_flat_dict
-from tca_ros.node_core import CATCH_UP_CHUNK, MAX_CATCH_UP_WALL, NodeCore, NS
-from tca_ros.node_episode import Log, MuscleState
-from tca_ros.node_schema import build_simulator, NODE_SCHEMA, validate_node_values
+from tca_ros.ros import node_core
+from tca_ros.ros.node_core import CATCH_UP_CHUNK, MAX_CATCH_UP_WALL, NodeCore, NS
+from tca_ros.ros.node_episode import Log, MuscleState
+from tca_ros.ros.node_schema import build_simulator, NODE_SCHEMA, validate_node_values
 
 NODE_DEFAULTS = {s.name: s.default for s in NODE_SCHEMA}
 
 
 def test_the_core_imports_no_rclpy_and_no_ros_message():
-    check = ('import sys, tca_ros.node_core, tca_ros.node_episode, tca_ros.node_schema, '
-             'tca_ros.node_tables; print(sorted(m for m in sys.modules if m.split(".")[0] in '
+    check = ('import sys, tca_ros.ros.node_core, tca_ros.ros.node_episode, '
+             'tca_ros.ros.node_schema, '
+             'tca_ros.ros.node_tables; print(sorted(m for m in sys.modules if m.split(".")[0] in '
              '("rclpy", "std_msgs", "sensor_msgs", "diagnostic_msgs", "builtin_interfaces")))')
     out = subprocess.run([sys.executable, '-c', check], capture_output=True, text=True,
                          check=True).stdout.strip()

@@ -3,7 +3,7 @@ import math
 
 import pytest
 
-from tca_ros.demo import run_demo, setpoint_at
+from tca_ros.cli.demo import run_demo, setpoint_at
 
 pytestmark = pytest.mark.timeout(120)
 

@@ -1,6 +1,6 @@
 """The muscle's state on /diagnostics (issue 13, item 8).
 
-The status builder is checked alone (tca_ros.node_diagnostics is pure), then over real
+The status builder is checked alone (tca_ros.ros.node_diagnostics is pure), then over real
 topics: a node's status goes OK, WARN (overheat, watchdog), ERROR (melt), back to OK on
 ~/reset, and STALE while it waits for /clock; a physics failure (no valid input reaches
 one) is injected into an in-process node, as test_node_hardening does.
@@ -14,8 +14,8 @@ from rosgraph_msgs.msg import Clock
 from std_msgs.msg import Float64
 from std_srvs.srv import Trigger
 
-from tca_ros.node_diagnostics import (DIAGNOSTICS_PERIOD, hardware_id, level_name,
-                                      muscle_status, MuscleState, status_name)
+from tca_ros.ros.node_diagnostics import (DIAGNOSTICS_PERIOD, hardware_id, level_name,
+                                          muscle_status, MuscleState, status_name)
 
 from test_node_harness import CONFIG, ensure_rclpy, Probe, start_tca  # noqa: I100
 
@@ -204,7 +204,7 @@ def test_stale_until_the_clock_starts_in_a_namespace(tmp_path, probe):
 def test_a_physics_failure_is_an_error_until_reset():
     from rclpy.parameter import Parameter
     from tca_ros.model.params import load_params, to_flat_dict
-    from tca_ros.node import TcaSimNode
+    from tca_ros.ros.node import TcaSimNode
     ensure_rclpy()
     flat = to_flat_dict(load_params(str(CONFIG)))
     flat['model'] = 'cst'

@@ -117,7 +117,7 @@ def test_bad_start_ups_end_in_one_line_and_exit_2(tmp_path):
     starts = _bad_starts(tmp_path)
     batch = 4  # at a time: each costs ~2 s of imports on 2 cores
     for i in range(0, len(starts), batch):
-        nodes = [(name, NodeProcess(module_command('tca_ros.node', [str(a) for a in args]),
+        nodes = [(name, NodeProcess(module_command('tca_ros.ros.node', [str(a) for a in args]),
                                     tmp_path / f'{name}.log'))
                  for name, args in starts[i:i + batch]]
         for name, node in nodes:
@@ -155,7 +155,7 @@ class _Log:
 def tca():
     from rclpy.parameter import Parameter
     from tca_ros.model.params import load_params, to_flat_dict
-    from tca_ros.node import TcaSimNode
+    from tca_ros.ros.node import TcaSimNode
     ensure_rclpy()
     flat = to_flat_dict(load_params(str(CONFIG)))
     flat['model'] = 'cst'

@@ -96,7 +96,7 @@ def start_tca(log_dir, *args, name='tca', params_file=CONFIG, wait=True):
     """Start tca_node with the cst model (fast start-up) plus ``args`` (--ros-args)."""
     ros_args = ['--params-file', str(params_file)] if params_file else []
     ros_args += ['-p', 'model:=cst', *args]
-    node = NodeProcess(module_command('tca_ros.node', ros_args),
+    node = NodeProcess(module_command('tca_ros.ros.node', ros_args),
                        pathlib.Path(log_dir) / f'{name}.log')
     if wait:
         try:

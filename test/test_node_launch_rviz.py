@@ -14,7 +14,7 @@ from rclpy.qos import DurabilityPolicy, ReliabilityPolicy
 from visualization_msgs.msg import Marker
 import yaml
 
-from tca_ros.node_params import namespaced_name, NODE_SPECS
+from tca_ros.ros.node_params import namespaced_name, NODE_SPECS
 
 from test_node_harness import Probe, ROOT, start_tca  # noqa: I100
 

@@ -3,7 +3,7 @@ import pytest
 
 from tca_ros.model.dynamics import TcaSimulator
 from tca_ros.model.params import load_params
-from tca_ros.pid_node import checked_value, PidController
+from tca_ros.ros.pid_node import checked_value, PidController
 
 from test_node_harness import module_command, NodeProcess  # noqa: I100
 
@@ -68,7 +68,7 @@ def test_parameter_check_names_parameter_value_and_range():
     ("joint_name:=''", "'joint_name' = '': must be a non-empty name"),
 ])
 def test_bad_start_up_parameter_exits_with_one_line(tmp_path, rule, line):
-    node = NodeProcess(module_command('tca_ros.pid_node', ['-p', rule]), tmp_path / 'pid.log')
+    node = NodeProcess(module_command('tca_ros.ros.pid_node', ['-p', rule]), tmp_path / 'pid.log')
     try:
         assert node.proc.wait(60) == 2
     finally:

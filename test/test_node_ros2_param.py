@@ -14,7 +14,7 @@ from rclpy.parameter import (get_parameter_value, parameter_dict_from_yaml_file,
 from rclpy.parameter_client import AsyncParameterClient
 import yaml
 
-from tca_ros.node_params import READ_ONLY
+from tca_ros.ros.node_params import READ_ONLY
 
 from test_node_harness import Probe, start_tca  # noqa: I100
 
@@ -72,7 +72,7 @@ def probe(tca):
 
 def test_every_parameter_keeps_its_declared_type_from_start_up(probe):
     from tca_ros.model.params import SCHEMA
-    from tca_ros.node_params import NODE_SCHEMA
+    from tca_ros.ros.node_params import NODE_SCHEMA
     kinds = {bool: ParameterType.PARAMETER_BOOL, int: ParameterType.PARAMETER_INTEGER,
              float: ParameterType.PARAMETER_DOUBLE, str: ParameterType.PARAMETER_STRING,
              list: ParameterType.PARAMETER_DOUBLE_ARRAY}

@@ -16,7 +16,7 @@ from sensor_msgs.msg import JointState, Temperature
 from visualization_msgs.msg import Marker
 
 from tca_ros.model.params import check_value, ParameterError, SPECS
-from tca_ros.node_params import namespaced_name, NODE_SPECS, numbers_as_declared_types
+from tca_ros.ros.node_params import namespaced_name, NODE_SPECS, numbers_as_declared_types
 
 from test_node_harness import (module_command, NodeProcess, Probe, ROOT,  # noqa: I100
                                start_tca, STOP_GRACE)
@@ -159,8 +159,8 @@ def test_signals_end_the_node_cleanly_every_time(tmp_path, sig):
 def test_shipped_conical_config_runs_the_rod_model_and_publishes_the_hanging_cone(tmp_path):
     """config/conical.yaml steps the conical rod table (no fallback, no warning); the
     Marker is the cone hanging below its apex clamp; cst is refused in one line."""
-    node = NodeProcess(module_command('tca_ros.node', ['--params-file', str(CONICAL), '-p',
-                                                       'shape_rate:=10.0']),
+    node = NodeProcess(module_command('tca_ros.ros.node', ['--params-file', str(CONICAL), '-p',
+                                                           'shape_rate:=10.0']),
                        tmp_path / 'conical.log')
     probe = Probe()
     try:
@@ -209,7 +209,7 @@ def test_names_are_unique_per_namespace(tmp_path):
 def test_tca_pid_in_a_namespace_controls_that_namespaces_joint(tmp_path):
     from std_msgs.msg import Float64
     sim = start_tca(tmp_path, '-r', '__ns:=/finger1', name='sim')
-    pid = NodeProcess(module_command('tca_ros.pid_node', [
+    pid = NodeProcess(module_command('tca_ros.ros.pid_node', [
         '-r', '__ns:=/finger1', '-p', 'setpoint:=0.001']), tmp_path / 'pid.log')
     probe = Probe()
     try:

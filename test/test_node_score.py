@@ -8,12 +8,12 @@ and two runs must give identical samples. No node or no controller: one line, ex
 import numpy as np
 import pytest
 
-from tca_ros.cli import main as cli_main
-from tca_ros.cli_common import InputError
+from tca_ros.cli.common import InputError
+from tca_ros.cli.main import main as cli_main
+from tca_ros.cli.score_ros import score_over_ros
 from tca_ros.model.params import load_params
-from tca_ros.node_task import parse_record, parse_task, task_message
-from tca_ros.pid_node import PARAMETERS, PidController
-from tca_ros.score_ros import score_over_ros
+from tca_ros.ros.node_task import parse_record, parse_task, task_message
+from tca_ros.ros.pid_node import PARAMETERS, PidController
 from tca_ros.toolkit.scoring import law_controller, run_tasks
 from tca_ros.toolkit.tasks import Task
 
@@ -53,7 +53,7 @@ def node(logs):
 @pytest.fixture(scope='module')
 def loop(node, logs):
     """tca_pid (stamped_reference) in /finger1 with the node."""
-    pid = NodeProcess(module_command('tca_ros.pid_node', [
+    pid = NodeProcess(module_command('tca_ros.ros.pid_node', [
         '-r', f'__ns:={NAMESPACE}', '-p', 'stamped_reference:=true']), logs / 'pid.log')
     yield node, pid
     pid.stop()

@@ -7,7 +7,7 @@ import rclpy
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 
-from tca_ros.node_spin import spin_resiliently
+from tca_ros.ros.node_spin import spin_resiliently
 
 
 class FlakyExecutor(SingleThreadedExecutor):

@@ -1,11 +1,11 @@
-"""The node's table rows built off the executor (tca_ros.node_tables); no ROS needed."""
+"""The node's table rows built off the executor (tca_ros.ros.node_tables); no ROS needed."""
 import threading
 import time
 
 import pytest
 
 from tca_ros.model.params import load_params
-from tca_ros.node_tables import muscle_temperatures, table_rows, TableRows
+from tca_ros.ros.node_tables import muscle_temperatures, table_rows, TableRows
 
 
 class SlowTable:

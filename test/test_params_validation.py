@@ -101,7 +101,7 @@ def test_a_load_the_coil_cannot_hold_is_refused_at_the_start():
 
 def test_a_rod_table_failure_names_the_parameter():
     """Item 6: the rod table's refusal names the value it cannot take, in one line."""
-    from tca_ros.node_params import build_simulator, NODE_SCHEMA
+    from tca_ros.ros.node_params import build_simulator, NODE_SCHEMA
     cfg = {s.name: s.default for s in NODE_SCHEMA}
     # lambda(tau) of eq. (11) dipping to 0.75 and back: y(F) below ambient is not monotonic
     # (coil.pitch_angle_deg = 89, the former example, is now outside the schema range)

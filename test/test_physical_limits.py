@@ -13,7 +13,7 @@ import sys
 import numpy as np
 import pytest
 
-from tca_ros.cli import main
+from tca_ros.cli.main import main
 from tca_ros.model import kinetostatics as ks
 from tca_ros.model.dynamics import TcaSimulator
 from tca_ros.model.kinetostatic_models import make_kinetostatic_model
@@ -171,6 +171,6 @@ def test_the_node_default_melt_is_inside_the_model_range():
     """tca_node breaks the muscle at melt_temperature (250 degC): the table reaches it."""
     if 'rclpy' not in sys.modules:
         pytest.importorskip('rclpy')
-    from tca_ros.node_params import NODE_SPECS
+    from tca_ros.ros.node_params import NODE_SPECS
     assert NODE_SPECS['melt_temperature'].default <= MELT_TEMPERATURE_DEGC
     assert np.isfinite(MELT_TEMPERATURE_DEGC)

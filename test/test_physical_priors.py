@@ -10,16 +10,16 @@ import math
 import numpy as np
 import pytest
 
-from tca_ros.cli import main
-from tca_ros.diagnosis.calibration import calibrate
-from tca_ros.diagnosis.calibration_report import format_summary
-from tca_ros.diagnosis.physical_priors import physical_reference, PLAUSIBLE_RATIO
-from tca_ros.diagnosis.predictions import full_nrmse
-from tca_ros.diagnosis.realistic import bench_record
+from tca_ros.calibration.calibration import calibrate
+from tca_ros.calibration.calibration_report import format_summary
+from tca_ros.calibration.physical_priors import physical_reference, PLAUSIBLE_RATIO
+from tca_ros.calibration.predictions import full_nrmse
+from tca_ros.cli.main import main
 from tca_ros.model.heat_transfer import natural_convection_coefficient
 from tca_ros.model.muscle import describe_muscle, MuscleSpec
 from tca_ros.model.params import load_params
 from tca_ros.model.thermal import heat_capacity
+from tca_ros.synthetic.realistic import bench_record
 
 SALP = MuscleSpec(thread='nylon66_silver', thread_diameter=0.45e-3, coil='mandrel',
                   mandrel_diameter=0.8e-3, pitch_angle_deg=22.5, natural_length=0.05,
@@ -167,9 +167,9 @@ def test_the_next_experiment_separates_rivals_the_records_confuse():
     # a realistic muscle at one load: the records fix a combination of the stiffness and
     # the curvature; two rivals along it fit the records alike, and the experiment the
     # calibration proposes tells them apart by several noise units
-    from tca_ros.diagnosis.experiments import _rivals, next_experiments
-    from tca_ros.diagnosis.predictions import predictor
-    from tca_ros.diagnosis.realistic import realistic_set
+    from tca_ros.calibration.experiments import _rivals, next_experiments
+    from tca_ros.calibration.predictions import predictor
+    from tca_ros.synthetic.realistic import realistic_set
     s = realistic_set(3, drift=0.0)
     cal = calibrate(s.records, s.start, model='cst', check=False)
     found = next_experiments(cal)

@@ -12,14 +12,14 @@ import json
 import numpy as np
 import pytest
 
-from tca_ros.cli import main
-from tca_ros.cli_compare import simulate_record
-from tca_ros.diagnosis.data import write_csv_record
-from tca_ros.diagnosis.posterior import BAND_LABEL, check_posterior, draw_coordinates, \
+from tca_ros.calibration.posterior import BAND_LABEL, check_posterior, draw_coordinates, \
     draw_params, mean_params, POSTERIOR_KEY, PosteriorError, read_posterior, UNMEASURED_NOTE, \
     write_line
-from tca_ros.diagnosis.realistic import realistic_set
+from tca_ros.cli.compare import simulate_record
+from tca_ros.cli.main import main
 from tca_ros.model.params import dump_params, load_params, to_flat_dict
+from tca_ros.records.data import write_csv_record
+from tca_ros.synthetic.realistic import realistic_set
 
 SEED = 5
 
@@ -162,7 +162,7 @@ def test_bad_posterior_or_draws_is_one_line_with_status_2(calibrated, tmp_path, 
 
 
 def test_a_profile_plot_draws_the_band(calibrated, tmp_path, monkeypatch):
-    import tca_ros.cli_compare as cli_compare
+    import tca_ros.cli.compare as cli_compare
     folder, _ = calibrated
     seen = {}
     original = cli_compare.plot_simulation

@@ -2,8 +2,8 @@
 import io
 import re
 
-from tca_ros.diagnosis import progress as progress_module
-from tca_ros.diagnosis.progress import BAR_CAP, Progress
+from tca_ros.calibration import progress as progress_module
+from tca_ros.calibration.progress import BAR_CAP, Progress
 
 
 class Terminal(io.StringIO):

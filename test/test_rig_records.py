@@ -2,9 +2,9 @@
 import numpy as np
 import pytest
 
-from tca_ros.diagnosis.data import DataError, read_record, Record, write_csv_record
 from tca_ros.model.params import load_params
 from tca_ros.model.rig_simulation import simulate_rig
+from tca_ros.records.data import DataError, read_record, Record, write_csv_record
 
 
 def test_isometric_record_with_a_force_column_round_trips(tmp_path):

@@ -4,7 +4,7 @@ import math
 import numpy as np
 import pytest
 
-from tca_ros.pid_node import PARAMETERS, PidController
+from tca_ros.ros.pid_node import PARAMETERS, PidController
 from tca_ros.toolkit import tasks
 from tca_ros.toolkit.scoring import format_table, law_controller, run_task, stroke_scales
 
@@ -105,7 +105,7 @@ def test_task_limits_say_out_of_reach_when_the_power_limit_cannot_get_there(free
 def test_score_warns_before_an_unreachable_task_and_each_row_names_its_limits(
         tmp_path, capsys, free_stroke):
     import io
-    from tca_ros.cli import main
+    from tca_ros.cli.main import main
     from tca_ros.model.params import dump_params
     config = tmp_path / 'lossy.yaml'
     dump_params(lossy(free_stroke, 5.0), str(config))

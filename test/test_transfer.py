@@ -9,13 +9,13 @@ import io
 import numpy as np
 import pytest
 
-from tca_ros.cli import main
-from tca_ros.diagnosis.data import write_csv_record
-from tca_ros.diagnosis.realistic import bench_record
-from tca_ros.diagnosis.transfer import read_trained_range
-from tca_ros.diagnosis.validation import repeat_floor
+from tca_ros.calibration.transfer import read_trained_range
+from tca_ros.calibration.validation import repeat_floor
+from tca_ros.cli.main import main
 from tca_ros.model.muscle import describe_muscle, MuscleSpec
 from tca_ros.model.params import dump_params
+from tca_ros.records.data import write_csv_record
+from tca_ros.synthetic.realistic import bench_record
 
 SPEC = MuscleSpec(thread='nylon66_silver', thread_diameter=0.45e-3, coil='mandrel',
                   mandrel_diameter=0.8e-3, pitch_angle_deg=22.5, natural_length=0.05,
@@ -99,7 +99,7 @@ def test_the_repeat_floor_is_the_mean_of_the_other_repeats():
 def test_an_air_flow_is_a_condition_with_its_own_heat_loss_scale():
     # a filmed muscle's time constant fell 2.8x with a fan: the same muscle at 0.4 and
     # 0.6 W in still air and at 0.8 W with 2.8x the heat loss, calibrated together
-    from tca_ros.diagnosis.calibration import calibrate
+    from tca_ros.calibration.calibration import calibrate
     start = describe_muscle(SPEC).params
     fan = start.with_values(**{'thermal.convection_coefficient':
                                2.8 * start.thermal.convection_coefficient})
@@ -161,10 +161,10 @@ def test_an_isotonic_calibration_predicts_the_force_of_an_isometric_rig(files, t
 def test_an_isometric_record_calibrates_the_same_params_and_predicts_a_load(tmp_path):
     # records of a clamped muscle alone (force, 1 g pretension) calibrate the muscle;
     # the calibrated file then predicts the same muscle with a hanging mass
-    from tca_ros.diagnosis.calibration import calibrate
-    from tca_ros.diagnosis.predictions import full_nrmse
-    from tca_ros.diagnosis.data import read_record
+    from tca_ros.calibration.calibration import calibrate
+    from tca_ros.calibration.predictions import full_nrmse
     from tca_ros.model.rig_simulation import simulate_rig
+    from tca_ros.records.data import read_record
     start = describe_muscle(SPEC).params
     truth = start.with_values(**{'fiber.untwist_gain': 1.3, 'effects.second_thermal_lag': 2.0})
     rng = np.random.default_rng(4)
@@ -221,9 +221,9 @@ def test_a_spring_rig_record_calibrates_and_is_predicted(tmp_path):
     # the muscle on a 20 N/m series spring pulling 0.1 N at rest (the rig's full dynamics),
     # logged with its displacement and the gauge's force: calibrated from it alone, the
     # file then predicts the same muscle on the spring at another power
-    from tca_ros.diagnosis.calibration import calibrate
-    from tca_ros.diagnosis.data import read_record
+    from tca_ros.calibration.calibration import calibrate
     from tca_ros.model.rig_simulation import simulate_rig
+    from tca_ros.records.data import read_record
     start = describe_muscle(SPEC).params
     truth = start.with_values(**{'fiber.untwist_gain': 1.3, 'rig.mode': 'spring',
                                  'rig.pretension': 0.1, 'rig.spring_stiffness': 20.0})
@@ -262,8 +262,8 @@ def _dump(params, folder):
 
 
 def test_rig_pretension_and_environment_are_read_as_labs_write_them(tmp_path):
-    from tca_ros.diagnosis.conditions import environment_of, rig_of
-    from tca_ros.diagnosis.data import read_record
+    from tca_ros.calibration.conditions import environment_of, rig_of
+    from tca_ros.records.data import read_record
     rows = ''.join(f'{0.2 * i:.1f},0.5,{0.01 + 1e-4 * i:.5f}\n' for i in range(30))
     cases = (('pretension_g', '1', 0.00981), ('pretension_kg', '0.002', 0.01962),
              ('pretension_n', '0.05', 0.05))

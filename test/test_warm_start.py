@@ -12,14 +12,14 @@ import re
 import numpy as np
 import pytest
 
-from tca_ros.cli import main
-from tca_ros.diagnosis.calibration import calibrate, CalibrationError, starts_warm
-from tca_ros.diagnosis.data import write_csv_record
-from tca_ros.diagnosis.record import Record
+from tca_ros.calibration.calibration import calibrate, CalibrationError, starts_warm
+from tca_ros.cli.main import main
 from tca_ros.model.params import load_params, muscle_at_rest
 from tca_ros.model.quasistatic import QuasiStaticUnsupported, simulate_quasistatic
 from tca_ros.model.simulation import simulate
 from tca_ros.model.thermal import heat_capacity, thermal_conductance
+from tca_ros.records.data import write_csv_record
+from tca_ros.records.record import Record
 
 MASS = 0.02  # kg
 

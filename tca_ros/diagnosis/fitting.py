@@ -24,13 +24,13 @@ import math
 import numpy as np
 from scipy.optimize import least_squares
 
+from tca_ros.calibration.residuals import lag_one_autocorrelation, noise_sigma
 from tca_ros.diagnosis.fit_result import CandidateScore, FitResult, standard_errors
 # FIT_RATE_HZ, MIN_PHYSICS_RATE_HZ and STOP are read from here by the diagnosis and tests
 from tca_ros.diagnosis.grid_simulation import FIT_RATE_HZ, GridSimulations, \
     MIN_PHYSICS_RATE_HZ, STOP  # noqa: F401
 from tca_ros.diagnosis.holdout import DEFAULT_VALIDATION, make_holdout, mask_runs
 from tca_ros.diagnosis.noise import quantisation_sigma
-from tca_ros.diagnosis.residuals import lag_one_autocorrelation, noise_sigma
 from tca_ros.model.params import SPECS
 
 FAILED_RESIDUAL = 1e3  # noise units per sample returned when a simulation fails

@@ -13,7 +13,7 @@ import math
 
 import numpy as np
 
-from tca_ros.diagnosis.progress import Progress
+from tca_ros.calibration.progress import Progress
 from tca_ros.model.quasistatic import QuasiStaticUnsupported, simulate_quasistatic
 from tca_ros.model.simulation import simulate
 

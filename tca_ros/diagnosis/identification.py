@@ -8,20 +8,20 @@ import math
 import os
 import time as wallclock
 
-from tca_ros.diagnosis.candidates import ABSORBED, absorbed_candidates, parameters_at_bounds
-from tca_ros.diagnosis.conditions import held_strength
-from tca_ros.diagnosis.data import DataError, record_config
+from tca_ros.calibration.candidates import ABSORBED, absorbed_candidates, parameters_at_bounds
+from tca_ros.calibration.conditions import held_strength
+from tca_ros.calibration.progress import Progress
 from tca_ros.diagnosis.holdout import AUTO, choose_validation, DEFAULT_VALIDATION
 from tca_ros.diagnosis.joint import beats_nominal, family_rival_notes, joint_extension, \
     JOINT_NFEV, joint_notes
 from tca_ros.diagnosis.nominal import calibrate_training_part, candidates_of, DiagnosisError, \
     nominal_with_fallback, read_any, record_nominal
 from tca_ros.diagnosis.parameter_names import NOMINAL_NAMES
-from tca_ros.diagnosis.progress import Progress
 from tca_ros.diagnosis.search import MIN_GAIN_PERCENT, search_effects
 from tca_ros.diagnosis.verdict import channel_stats, decide_verdict, gain, holds_one_load, \
     needs_explaining, NOTHING_TO_EXPLAIN, ONE_LOAD_NOTE, pooled_heldout_rmse
 from tca_ros.model.params import SPECS
+from tca_ros.records.data import DataError, record_config
 
 VERDICTS = ('explained', 'adequate', 'unexplained')
 #: Rough count of simulations of a diagnosis, for the progress bar.

@@ -23,7 +23,7 @@ partner (pair_order), under the same rules (the same section, "Pairs").
 from dataclasses import dataclass
 import math
 
-from tca_ros.diagnosis.candidates import parameters_at_bounds
+from tca_ros.calibration.candidates import parameters_at_bounds
 from tca_ros.diagnosis.search import LAG_EFFECTS, MIN_GAIN_PERCENT
 from tca_ros.diagnosis.verdict import channel_stats, heldout_gain_over, needs_explaining, \
     pooled_heldout_rmse

@@ -9,11 +9,11 @@ import os
 
 import numpy as np
 
-from tca_ros.diagnosis.candidates import build_candidates, recalibration_spaces
-from tca_ros.diagnosis.data import DataError, read_record
+from tca_ros.calibration.candidates import build_candidates, recalibration_spaces
 from tca_ros.diagnosis.fitting import FitProblem
 from tca_ros.diagnosis.holdout import DEFAULT_VALIDATION
-from tca_ros.diagnosis.record_ops import decimated
+from tca_ros.records.data import DataError, read_record
+from tca_ros.records.record_ops import decimated
 
 PEAK_PERCENTILE = 99.5  # % of measured contraction taken as its peak (noise-robust)
 INITIAL_WINDOW_S = 1.0  # s at the start of a record taken as ambient equilibrium
@@ -90,8 +90,8 @@ def nominal_problems(records, params_of, recalibrated, options, paths):
 
 def read_any(path, config):
     """Return the Record of a CSV or a rosbag2 recording (a bag needs ``config``)."""
-    from tca_ros.diagnosis.data import read_bag_record
     from tca_ros.model.params import load_params
+    from tca_ros.records.data import read_bag_record
     if os.path.isdir(path) or str(path).endswith('.mcap'):
         if config is None:
             raise DataError(f'{path}: row 1, column {"tca"!r}: a rosbag2 recording '
@@ -130,9 +130,9 @@ def calibrate_training_part(records, params_of, model, fraction, supply, progres
     its training samples (holdout.py) enter the fit. ``calibrate_options``
     (fit, start_values, max_nfev) go to calibration.calibrate.
     """
+    from tca_ros.calibration.calibration import calibrate, CalibrationError
+    from tca_ros.calibration.predictions import record_params
     from tca_ros.diagnosis.holdout import make_holdout
-    from tca_ros.diagnosis.calibration import calibrate, CalibrationError
-    from tca_ros.diagnosis.predictions import record_params
     from tca_ros.model.kinetostatic_models import make_kinetostatic_model
     from tca_ros.model.quasistatic import QuasiStaticUnsupported
     holdout = make_holdout(fraction, validation)

@@ -58,7 +58,7 @@ def calibrated_values(params, reference):
     ``reference``: the description the stiffness scale is relative to (the
     config the calibration started from).
     """
-    from tca_ros.diagnosis.calibration_parameters import expansion_zero
+    from tca_ros.calibration.calibration_parameters import expansion_zero
     moduli = reference.moduli.youngs_modulus
     out = {
         'heat_capacity': (heat_capacity(params.fiber), 'J/K'),

@@ -4,7 +4,7 @@ The caller selects the backend (the CLI and the report use Agg).
 """
 import numpy as np
 
-from tca_ros.diagnosis.residuals import cross_correlation_lag, heating_mask
+from tca_ros.calibration.residuals import cross_correlation_lag, heating_mask
 
 MICRO = 1e6  # m -> um for axis labels
 

@@ -9,9 +9,9 @@ import os
 
 import numpy as np
 
+from tca_ros.calibration.physical_priors import SHIFT_Z
 from tca_ros.diagnosis import plots
 from tca_ros.diagnosis.parameter_names import nominal_value
-from tca_ros.diagnosis.physical_priors import SHIFT_Z
 from tca_ros.diagnosis.summary import heldout_text, nominal_lines
 from tca_ros.diagnosis.verdict import gain
 from tca_ros.model.params import dump_params, muscle_at_rest

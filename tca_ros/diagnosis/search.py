@@ -95,7 +95,7 @@ def prune_effects(problem, found, values, candidates):
     is made (and polished), and the step repeats. Returns (effects, values); the
     problem's base is left at the returned model.
     """
-    from tca_ros.diagnosis.candidates import Candidate
+    from tca_ros.calibration.candidates import Candidate
     spaces_of = {c.name: c.spaces for c in candidates}
     best_bic = _heldout_bic(problem, values, found, candidates)
     while len(found) > 1:
@@ -149,7 +149,7 @@ def _lag_exchange(problem, values):
     Returns (base starts, lag in s), or ((), None) when the damping is not
     refitted or the coil has no stiffness.
     """
-    from tca_ros.diagnosis.calibration import coil_stiffness
+    from tca_ros.calibration.calibration import coil_stiffness
     space = next((s for s in problem.recalibration if s.name == 'dynamics.damping'), None)
     if space is None:
         return (), None
@@ -276,7 +276,7 @@ def polish_effects(problem, found, spaces_of, max_nfev=POLISH_NFEV):
     a further candidate is not credited with the refit's gain. Returns the values
     of the (re-based) model.
     """
-    from tca_ros.diagnosis.candidates import Candidate
+    from tca_ros.calibration.candidates import Candidate
     values = dict(problem.base_values)
     spaces = tuple(s for name in found for s in spaces_of[name]) + problem.recalibration
     joint = Candidate('+'.join(found), spaces, ())

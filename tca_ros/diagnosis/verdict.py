@@ -9,9 +9,9 @@ import math
 
 import numpy as np
 
+from tca_ros.calibration.residuals import residual_stats
 from tca_ros.diagnosis.noise import heldout_deviance_gain, structure_test
 from tca_ros.diagnosis.regressors import input_terms_in_runs
-from tca_ros.diagnosis.residuals import residual_stats
 from tca_ros.diagnosis.verdict_text import verdict_sentence
 from tca_ros.model.thermal import thermal_time_constant
 

@@ -14,9 +14,9 @@ Each channel's clause names the criterion that decided it with its statistic
 and threshold, so the sentence cannot say "structured" beside a p-value that
 says otherwise.
 """
+from tca_ros.calibration.residuals import STRUCTURE_RATIO
 from tca_ros.diagnosis.noise import MAX_NOISE_SHARE, STRUCTURE_ALPHA, STRUCTURE_FLOOR, \
     STRUCTURE_NOISE_SHARE
-from tca_ros.diagnosis.residuals import STRUCTURE_RATIO
 
 MIN_TEST_SAMPLES = 12  # block means the structure test needs (noise.structure_test)
 
