@@ -110,19 +110,25 @@ def write_line(posterior):
     return f'{POSTERIOR_KEY}: {json.dumps(posterior, separators=(",", ":"))}'
 
 
-def read_posterior(path):
-    """Return the posterior stored in a params file's header, or None if it has none.
-
-    Raises PosteriorError naming the file and the field when the line is malformed.
-    """
+def header_entry(path, key):
+    """Return the text after ``key:`` on a params file's leading comment lines, or None."""
     with open(path, encoding='utf-8') as fh:
         for line in fh:
             if not line.startswith('#'):
                 break
             text = line.lstrip('#').strip()
-            if text.startswith(POSTERIOR_KEY + ':'):
-                return check_posterior(text[len(POSTERIOR_KEY) + 1:], path)
+            if text.startswith(key + ':'):
+                return text[len(key) + 1:]
     return None
+
+
+def read_posterior(path):
+    """Return the posterior stored in a params file's header, or None if it has none.
+
+    Raises PosteriorError naming the file and the field when the line is malformed.
+    """
+    text = header_entry(path, POSTERIOR_KEY)
+    return None if text is None else check_posterior(text, path)
 
 
 def check_posterior(text, path=''):

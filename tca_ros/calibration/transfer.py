@@ -15,6 +15,7 @@ import numpy as np
 from tca_ros.calibration.conditions import environment_of, measured, rig_of, SCALE_PREFIX, \
     STILL_AIR
 from tca_ros.calibration.lumped import fit_lumped, predict_lumped
+from tca_ros.calibration.posterior import header_entry
 from tca_ros.calibration.predictions import full_predictions, normalised_rmse, predictor
 from tca_ros.calibration.validation import condition_of, repeat_floor
 
@@ -80,17 +81,11 @@ def header_line(trained):
 
 def read_trained_range(path):
     """Return the trained range stored in a calibrated params file's header, or None."""
-    with open(path, encoding='utf-8') as fh:
-        for line in fh:
-            if not line.startswith('#'):
-                break
-            text = line.lstrip('#').strip()
-            if text.startswith(HEADER_KEY + ':'):
-                try:
-                    return json.loads(text[len(HEADER_KEY) + 1:])
-                except ValueError:
-                    return None
-    return None
+    text = header_entry(path, HEADER_KEY)
+    try:
+        return None if text is None else json.loads(text)
+    except ValueError:
+        return None
 
 
 def profile_extrapolation(trained, power, load, rig):
