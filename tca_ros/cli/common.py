@@ -27,6 +27,20 @@ class InputError(ValueError):
     """Bad command-line input; the message is one line."""
 
 
+CONFIG_HELP = 'params file (path or shipped name: free_stroke, self_coiled, conical)'
+MODEL_HELP = "kinetostatic model (default: the config's model)"
+
+
+def add_config_options(sp, default='free_stroke', config_help=CONFIG_HELP, model=True,
+                       model_help=MODEL_HELP, required=False):
+    """Add --config (a params file or shipped name) and, with ``model``, --model to ``sp``."""
+    from tca_ros.model.params import MODELS
+    kind = {'required': True} if required else {'default': default}
+    sp.add_argument('--config', help=config_help, **kind)
+    if model:
+        sp.add_argument('--model', choices=MODELS, default=None, help=model_help)
+
+
 def checked_config(name_or_path, option='--config'):
     """Return the params file path of a config, refusing non-files and huge files."""
     path = resolve_config(name_or_path)

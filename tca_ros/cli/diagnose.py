@@ -22,7 +22,7 @@ EXAMPLE = """example (the shipped synthetic 240 s recording; a few minutes of CP
 
 def add_parser(subparsers):
     """Register ``diagnose`` on the `tca_sim` subparsers."""
-    from tca_ros.model.params import MODELS
+    from tca_ros.cli.common import add_config_options
     sp = subparsers.add_parser(
         'diagnose', help='find what the model gets wrong in a recording (CSV or MCAP)',
         description='Calibrate the model on part of a recording, search the catalogue of '
@@ -31,10 +31,11 @@ def add_parser(subparsers):
     sp.add_argument('data', nargs='+',
                     help='recording(s): CSV with # key: value header, or MCAP bag; several '
                          'records of one muscle are diagnosed together (one calibration)')
-    sp.add_argument('--config', default=None,
-                    help="nominal params file (default: the recording's '# tca:' header)")
-    sp.add_argument('--model', choices=MODELS, default=None,
-                    help="kinetostatic model of the fits (default: the config's model)")
+    add_config_options(sp, default=None,
+                       config_help="nominal params file (default: the recording's '# tca:' "
+                                   'header)',
+                       model_help="kinetostatic model of the fits (default: the config's "
+                                  'model)')
     sp.add_argument('--calibrated', default=None,
                     help='params file from `tca_sim calibrate`: the nominal model to judge '
                          'effects against (skips the calibration of the training part)')

@@ -16,9 +16,9 @@ import warnings
 
 import numpy as np
 
-from tca_ros.cli.common import check_finite, CliParser, count, EXIT_BAD_INPUT, \
-    EXIT_FAILED, EXIT_OK, finite_float, InputError, MESSAGE_CHARS, package_version, \
-    params_from_args as _params, warn
+from tca_ros.cli.common import add_config_options, check_finite, CliParser, count, \
+    EXIT_BAD_INPUT, EXIT_FAILED, EXIT_OK, finite_float, InputError, MESSAGE_CHARS, \
+    package_version, params_from_args as _params, warn
 from tca_ros.cli.profile import read_profile  # noqa: F401 (tca_ros.cli.main's API)
 from tca_ros.cli.simulate import MAX_SIM_STEPS, RIG_PROFILE_COLUMNS  # noqa: F401 (API)
 from tca_ros.model.params import GRAVITY, MODELS, ParameterError
@@ -226,21 +226,13 @@ def build_parser():
                         version=f'%(prog)s {package_version()} (tca_ros)')
     sub = parser.add_subparsers(dest='command', metavar='COMMAND')
 
-    def common(sp, model=True):
-        sp.add_argument('--config', default='free_stroke',
-                        help='params file (path or shipped name: free_stroke, self_coiled, '
-                             'conical)')
-        if model:
-            sp.add_argument('--model', choices=MODELS, default=None,
-                            help="kinetostatic model (default: the config's model)")
-
     sp = sub.add_parser(
         'statics', help='displacement (m) vs temperature (degC) under a hanging mass',
         description='Print CSV temperature,displacement (degC, m): the loaded equilibrium '
                     'contraction from --tmin under a hanging mass; a conical TCA prints '
                     'temperature,end_height (m) and can write its shapes (--shape).',
         epilog=STATICS_EXAMPLE)
-    common(sp)
+    add_config_options(sp)
     sp.add_argument('--mass', type=finite_float, default=None,
                     help="hanging mass (kg); default: the config's dynamics.load / g")
     sp.add_argument('--tmin', type=finite_float, default=25.0, help='first temperature (degC)')
@@ -255,14 +247,14 @@ def build_parser():
     sp.set_defaults(func=cmd_statics)
 
     from tca_ros.cli.simulate import add_parser as add_simulate_parser
-    add_simulate_parser(sub, common)
+    add_simulate_parser(sub)
 
     sp = sub.add_parser(
         'bench', help='benchmark the dynamics of each model (printed figures)',
         description='Time the kinetostatic solve and the dynamics of every model on this '
                     'machine (1 kHz physics, one core) and print the figures.',
         epilog=BENCH_EXAMPLE)
-    common(sp, model=False)
+    add_config_options(sp, model=False)
     sp.add_argument('--seconds', type=finite_float, default=60.0, help='simulated time (s)')
     sp.set_defaults(func=cmd_bench)
 
@@ -284,7 +276,7 @@ def build_parser():
                     'statics_dynamics.png in --out), then the closed-loop demo: simulator '
                     'node and PID controller over ROS topics (demo_tracking.png).',
         epilog=DEMO_EXAMPLE)
-    common(sp, model=False)
+    add_config_options(sp, model=False)
     sp.add_argument('--out', default='out', help='output directory')
     sp.add_argument('--seconds', type=finite_float, default=30.0, help='closed-loop sim time (s)')
     sp.add_argument('--no-node', action='store_true', help='skip the ROS closed-loop demo')

@@ -29,8 +29,7 @@ EXAMPLE = """example (two tasks cut to 8 s, tca_pid's law in-process, PNGs in ou
 
 def add_parser(subparsers):
     """Register ``score`` on the `tca_sim` subparsers."""
-    from tca_ros.cli.common import finite_float
-    from tca_ros.model.params import MODELS
+    from tca_ros.cli.common import add_config_options, finite_float
     sp = subparsers.add_parser(
         'score',
         help='score a controller on the tracking tasks: tca_pid in-process, or any '
@@ -52,11 +51,8 @@ def add_parser(subparsers):
     sp.add_argument('--timeout', type=finite_float, default=10.0,
                     help='wall seconds without progress (no node, no controller, no '
                          'answer) before giving up with exit status 2')
-    sp.add_argument('--config', default='free_stroke',
-                    help='params file (in-process and --start-node; over ROS the '
-                         "node's own parameters are used)")
-    sp.add_argument('--model', choices=MODELS, default=None,
-                    help="kinetostatic model (default: the config's model)")
+    add_config_options(sp, config_help='params file (in-process and --start-node; over ROS '
+                                       "the node's own parameters are used)")
     sp.add_argument('--out', default=None, help='directory (DIR) for one PNG per task')
     sp.set_defaults(func=cmd_score)
 

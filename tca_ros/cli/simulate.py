@@ -10,8 +10,8 @@ import sys
 
 import numpy as np
 
-from tca_ros.cli.common import check_finite, count, EXIT_EVENT, EXIT_OK, finite_float, \
-    InputError, MAX_OUTPUT_SAMPLES, MESSAGE_CHARS, params_from_args
+from tca_ros.cli.common import add_config_options, check_finite, count, EXIT_EVENT, EXIT_OK, \
+    finite_float, InputError, MAX_OUTPUT_SAMPLES, MESSAGE_CHARS, params_from_args
 from tca_ros.cli.profile import PROFILE_COLUMNS, read_profile_columns, resample_hold
 from tca_ros.model.params import RIG_MODES
 from tca_ros.records.data import clip
@@ -33,15 +33,15 @@ exit status: 0 ok; 1 the model failed; 2 bad input; 3 the thread broke or melted
 (rows up to the event written, then one error line)"""
 
 
-def add_parser(subparsers, common):
-    """Register ``simulate`` on the `tca_sim` subparsers (``common`` adds --config/--model)."""
+def add_parser(subparsers):
+    """Register ``simulate`` on the `tca_sim` subparsers."""
     sp = subparsers.add_parser(
         'simulate', help='dynamics for a power (W) / load (N) profile CSV',
         description='Simulate the muscle on its rig for a profile of power (W) and load '
                     '(N) held between rows; print CSV of the columns of the rig (dead weight: '
                     'time,power,load,displacement,temperature,resistance; s, W, N, m, '
                     'degC, ohm) at --rate.', epilog=EXAMPLE)
-    common(sp)
+    add_config_options(sp)
     source = sp.add_mutually_exclusive_group(required=True)
     source.add_argument('--input',
                         help='CSV (path or shipped name, e.g. profile_steps) with columns '

@@ -24,7 +24,7 @@ EXAMPLE = """example (the free-stroke TCA at 1 W under its config's load; Bode p
 
 def add_parser(subparsers):
     """Register ``linearize`` on the `tca_sim` subparsers."""
-    from tca_ros.model.params import MODELS
+    from tca_ros.cli.common import add_config_options
     sp = subparsers.add_parser(
         'linearize',
         help='small-signal plant (power or voltage -> displacement, temperature, '
@@ -32,11 +32,7 @@ def add_parser(subparsers):
         description='Linearize the muscle at a constant power and load; print the operating '
                     'point, poles, DC gains, bandwidths and transfer functions '
                     '(docs/toolkit.md).', epilog=EXAMPLE)
-    sp.add_argument('--config', default='free_stroke',
-                    help='params file (path or shipped name: free_stroke, self_coiled, '
-                         'conical)')
-    sp.add_argument('--model', choices=MODELS, default=None,
-                    help="kinetostatic model (default: the config's model)")
+    add_config_options(sp)
     sp.add_argument('--power', type=finite_float, required=True,
                     help='operating power P0 (W), held constant')
     sp.add_argument('--load', type=finite_float, default=None,

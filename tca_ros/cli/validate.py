@@ -7,7 +7,7 @@ import argparse
 
 def add_parser(subparsers):
     """Register ``validate`` on the `tca_sim` subparsers."""
-    from tca_ros.model.params import MODELS
+    from tca_ros.cli.common import add_config_options
     sp = subparsers.add_parser(
         'validate', formatter_class=argparse.RawDescriptionHelpFormatter,
         help='predict records (any power, load, rig) with a calibrated params file, '
@@ -21,10 +21,9 @@ def add_parser(subparsers):
                '--out my_tca_cal.yaml\n  tca_sim validate rec_3W.csv --config '
                'my_tca_cal.yaml')
     sp.add_argument('records', nargs='+', help='recordings (CSV with # header, or MCAP)')
-    sp.add_argument('--config', required=True,
-                    help='calibrated params file (from `tca_sim calibrate`)')
-    sp.add_argument('--model', choices=MODELS, default=None,
-                    help="kinetostatic model (default: the params file's)")
+    add_config_options(sp, required=True,
+                       config_help='calibrated params file (from `tca_sim calibrate`)',
+                       model_help="kinetostatic model (default: the params file's)")
     sp.set_defaults(func=cmd_validate)
 
 
