@@ -98,12 +98,20 @@ def environment_scales(values):
 
 
 def in_environment(params, record, scales):
-    """Return ``params`` with the heat loss of the record's environment (``scales``, -)."""
-    scale = (scales or {}).get(environment_of(record), 1.0)
-    if scale == 1.0:
+    """Return ``params`` with the heat loss of the record's environment (``scales``, -).
+
+    Outside still air the loss is carried by a flow (a fan, a liquid), whose
+    coefficient hardly depends on the temperature rise: the still-air growth
+    (effects.convection_exponent) is dropped there (docs/decisions.md C7).
+    """
+    env = environment_of(record)
+    if env == STILL_AIR:
         return params
-    return params.with_values(**{'thermal.convection_coefficient':
-                                 params.thermal.convection_coefficient * scale})
+    values = {'thermal.convection_coefficient':
+              params.thermal.convection_coefficient * (scales or {}).get(env, 1.0)}
+    if params.effects.convection_exponent != 0.0:
+        values['effects.convection_exponent'] = 0.0
+    return params.with_values(**values)
 
 
 def held_strength(params, records):

@@ -36,6 +36,7 @@ from tca_ros.model.coil_geometry import coil_count, conical_coil_count, \
     conical_fiber_length, conical_height_of_coil_count, contact_pitch_angle, \
     equivalent_helix, fiber_length_of_natural_length, inserted_twist_of_diameter, \
     mandrel_coil_radius, outer_coil_radius, pitch_angle_of_coil_count
+from tca_ros.model.heat_transfer import REFERENCE_RISE_K, still_air_loss_exponent
 from tca_ros.model.kinetostatic_models import make_kinetostatic_model
 from tca_ros.model.kinetostatics import loaded_length
 from tca_ros.model.muscle_spec import check_exactly_one, check_positive, check_spec, \
@@ -112,9 +113,27 @@ def describe_muscle(spec, presets=None):
         _helix_geometry(spec, flat, derived, r_t)
     flat['electrical.resistance'] = _resistance(spec, preset, flat, derived)
     flat['fiber.break_force'] = _break_force(spec, preset, r_t, derived)
+    _still_air_loss(spec, flat, derived)
     params = _build(flat)
     _thermal_figures(params, derived)
     return MuscleDescription(params=params, preset=preset, derived=derived)
+
+
+def _still_air_loss(spec, flat, derived):
+    """Set the growth of eq. (1)'s heat loss with the rise, as a thin thread's in still air.
+
+    h(dT) = h(dT_ref) (dT / dT_ref)^n (the 'nonlinear_convection' law of
+    effects.py) with n from Morgan's correlation on the thread's diameter plus
+    radiation (heat_transfer.still_air_loss_exponent, about 0.17 for 0.45 mm) and
+    dT_ref = REFERENCE_RISE_K: a real thread's loss coefficient grows with its
+    temperature, where the paper's eq. (1) keeps it constant (docs/decisions.md C7).
+    """
+    n = still_air_loss_exponent(spec.thread_diameter, spec.ambient_degc)
+    flat['effects.convection_exponent'] = n
+    flat['effects.convection_reference_dt'] = REFERENCE_RISE_K
+    derived['effects.convection_exponent'] = Derived(
+        n, '-', f'h ~ dT^n in still air (Morgan + radiation, 25-100 K, '
+        f'h quoted at {REFERENCE_RISE_K:g} K)')
 
 
 def _helix_geometry(spec, flat, derived, r_t):
