@@ -13,7 +13,9 @@ import types
 
 import pytest
 
-from tca_ros.model.params import from_flat_dict, load_params, SCHEMA, to_flat_dict
+from tca_ros.model.params_schema import SCHEMA
+from tca_ros.model.tca_params import from_flat_dict, to_flat_dict
+from tca_ros.params.files import load_params
 from tca_ros.ros import node_core
 from tca_ros.ros.node_core import CATCH_UP_CHUNK, MAX_CATCH_UP_WALL, NodeCore, NS
 from tca_ros.ros.node_episode import Log, MuscleState

@@ -10,7 +10,8 @@ import random
 import pytest
 
 from tca_ros.model.dynamics import StabilityError, TcaSimulator
-from tca_ros.model.params import from_flat_dict, ParameterError, SCHEMA
+from tca_ros.model.params_schema import ParameterError, SCHEMA
+from tca_ros.model.tca_params import from_flat_dict
 
 TINY = 5e-324  # the smallest subnormal double: inside every range that starts at 0
 MELT = 250.0  # degC, the node's default melt_temperature (the episode ends there)

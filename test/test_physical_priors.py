@@ -17,8 +17,9 @@ from tca_ros.calibration.predictions import full_nrmse
 from tca_ros.cli.main import main
 from tca_ros.model.heat_transfer import natural_convection_coefficient
 from tca_ros.model.muscle import describe_muscle, MuscleSpec
-from tca_ros.model.params import load_params
 from tca_ros.model.thermal import heat_capacity
+from tca_ros.params.files import load_params
+from tca_ros.params.thread_presets import load_thread_presets
 from tca_ros.synthetic.realistic import bench_record
 
 SALP = MuscleSpec(thread='nylon66_silver', thread_diameter=0.45e-3, coil='mandrel',
@@ -46,7 +47,7 @@ def test_the_reference_heat_capacity_is_the_threads_mass_times_cp():
 @pytest.fixture(scope='module')
 def plant():
     """Return (start params, truth, records at 1 and 2 W, record at 3 W) of a lagging muscle."""
-    start = describe_muscle(SALP).params
+    start = describe_muscle(SALP, load_thread_presets()).params
     c2, _, c0 = start.fiber.gamma_coefficients
     truth = start.with_values(**{'effects.second_thermal_lag': 4.0,
                                  'fiber.gamma_coefficients': [c2, -2.0 * c2 * -20.0, c0],
@@ -88,7 +89,7 @@ def test_a_shifted_or_implausible_heat_capacity_is_marked(factor, flag):
     # plants whose heat capacity is 1, 4 and 7 x the thread's m_t c_p: the tight prior
     # (x/÷ 1.3) holds the value back, but a shift beyond 2 prior spreads is a finding
     # and one past the physical factor of 2 is implausible
-    start = describe_muscle(SALP).params
+    start = describe_muscle(SALP, load_thread_presets()).params
     truth = start.with_values(**{'fiber.specific_heat': factor * start.fiber.specific_heat})
     rng = np.random.default_rng(2)
     records = [bench_record(truth, w, 0.02, rng, drift=0.0) for w in (0.3, 0.6)]
@@ -109,7 +110,7 @@ def test_a_shifted_or_implausible_heat_capacity_is_marked(factor, flag):
 
 
 def test_a_load_above_the_assumed_strength_is_a_warning_not_a_refusal():
-    start = describe_muscle(SALP).params
+    start = describe_muscle(SALP, load_thread_presets()).params
     assert start.fiber.break_force < 0.4 * 9.81
     truth = start.with_values(**{'fiber.break_force': 6.0})
     rng = np.random.default_rng(0)
@@ -143,7 +144,7 @@ def test_a_measured_description_reveals_a_power_loss_that_a_guessed_one_absorbs(
     # measured (1-5 %), the heat loss, gain and delivered power cannot all take the loss:
     # the calibration says which left the description and names power_loss among the
     # effects it can stand for. Described as guessed (x/÷ 3), the same loss is absorbed.
-    start = describe_muscle(SALP).params
+    start = describe_muscle(SALP, load_thread_presets()).params
     truth = start.with_values(**{'effects.power_loss_fraction': 0.25})
     rng = np.random.default_rng(3)
     records = [bench_record(truth, w, 0.02, rng, drift=0.0) for w in (0.3, 0.45, 0.6)]

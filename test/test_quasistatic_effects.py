@@ -13,10 +13,10 @@ from scipy.integrate import solve_ivp
 
 from tca_ros.model import effects as fx
 from tca_ros.model import quasistatic_effects as qe
-from tca_ros.model.params import load_params
 from tca_ros.model.quasistatic import simulate_quasistatic
 from tca_ros.model.simulation import simulate
 from tca_ros.model.thermal import step_response
+from tca_ros.params.files import load_params
 
 MASS = 0.02  # kg
 LOAD = MASS * 9.81  # N

@@ -1,7 +1,7 @@
 """Extensions of the nominal TCA model: the catalogue the diagnosis searches.
 
 Each effect is a physical relation, neutral at its default parameter value
-(``EffectParams`` in params.py), so the nominal model is the extended model with
+(``EffectParams`` in tca_params.py), so the nominal model is the extended model with
 every effect switched off. The simulator (dynamics.py) and the node call these
 functions; the diagnosis (tca_ros.diagnosis) fits their parameters.
 

@@ -3,8 +3,9 @@
 One ParamSpec per parameter, in the order the node declares them (SCHEMA, by name
 in SPECS), and the check of one value against its spec (check_value), whose
 one-line error names the parameter, the value and what is allowed, with a hint
-where YAML 1.1 (PyYAML, ``ros2 param set``) read a number as a string. params.py
-builds the typed parameter sets and reads and writes the params files from it.
+where YAML 1.1 (PyYAML, ``ros2 param set``) read a number as a string, told by
+YAML 1.1's typing rules without reading YAML. tca_params.py builds the typed
+parameter sets from it; tca_ros.params reads and writes the params files.
 """
 import array
 from dataclasses import dataclass

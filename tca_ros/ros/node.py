@@ -25,7 +25,9 @@ from rosgraph_msgs.msg import Clock as ClockMsg
 from std_msgs.msg import Float64
 from std_srvs.srv import Trigger
 
-from tca_ros.model.params import from_flat_dict, ParameterError, SCHEMA, SPECS
+from tca_ros.model.params_schema import ParameterError, SCHEMA, SPECS
+from tca_ros.model.tca_params import from_flat_dict
+from tca_ros.params.row_cache import install_disk_cache
 from tca_ros.ros.node_cmdline import check_ros_arguments, init_quietly, log_fatal
 from tca_ros.ros.node_core import NodeCore
 from tca_ros.ros.node_diagnostics import DiagnosticsPublisher
@@ -266,6 +268,7 @@ def main(args=None):
     try:
         check_ros_arguments(sys.argv if args is None else args)
         init_quietly(args)
+        install_disk_cache()  # a conical table's rows solved once, read at the next start
         node = TcaSimNode()
         spin_resiliently(node)
     except ParameterError as exc:

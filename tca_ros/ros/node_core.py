@@ -22,8 +22,9 @@ import time
 import numpy as np
 
 from tca_ros.model.dynamics import StabilityError
-from tca_ros.model.params import from_flat_dict, ParameterError
+from tca_ros.model.params_schema import ParameterError
 from tca_ros.model.rigs import start_load
+from tca_ros.model.tca_params import from_flat_dict
 from tca_ros.ros.node_episode import Episode, Log, non_finite
 from tca_ros.ros.node_schema import (build_simulator, physics_dt, physics_steps_per_tick, REBUILD,
                                      validate_node_values)
@@ -320,7 +321,7 @@ class NodeCore:
     def reconfigure(self, tca_values, node_values, changed):
         """Validate and apply new parameter values; return a Change (never raises for input).
 
-        ``tca_values`` maps every TCA parameter (model.params SCHEMA) to its value,
+        ``tca_values`` maps every TCA parameter (params_schema.SCHEMA) to its value,
         ``node_values`` every node parameter; ``changed`` names those just set. A new
         TCA rebuilds the simulator at the node's load and temperature; a new step
         (physics_rate, publish_rate) keeps the whole state.
