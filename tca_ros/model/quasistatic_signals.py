@@ -1,12 +1,12 @@
 """The thermal and input signals of the quasi-static reduction (quasistatic.py).
 
-Eq. (1) on a record's grid under a zero-order-hold power, by the steps of
-thermal.py that the full dynamics takes: exact while it is linear (one linear
-filter on a uniform grid), Runge-Kutta with radiation or nonlinear convection
-(quasistatic_effects.py); the second thermal lag behind it, the first-order filter
-the lags use, and the drive's dead time as a heat-preserving delay of the held
-input. Plain arrays in and out: the calibration's lumped models use the same
-filters.
+Eq. (1) on a record's grid under a zero-order-hold power, with the coefficients
+and steps of thermal.py that the full dynamics takes: exact while it is linear
+(all intervals at once, a linear filter), Runge-Kutta with radiation or
+nonlinear convection (quasistatic_effects.py); the second thermal lag behind it,
+the first-order filter the lags use, and the drive's dead time as a
+heat-preserving delay of the held input. Plain arrays in and out: the
+calibration's lumped models use the same filters.
 """
 import math
 
@@ -14,7 +14,7 @@ import numpy as np
 from scipy.signal import lfilter
 
 from tca_ros.model import quasistatic_effects as qe
-from tca_ros.model.thermal import heat_decay, heat_step_exact, HeatBalance, steady_temperature
+from tca_ros.model.thermal import HeatBalance
 
 #: Relative spread of the intervals below which a grid is taken as uniform (one filter).
 UNIFORM_SPREAD = 1e-9
@@ -23,43 +23,29 @@ UNIFORM_SPREAD = 1e-9
 def thermal_response(time, power, params):
     """Return T (degC) at ``time`` (s) under zero-order-hold ``power`` (W), eq. (1).
 
-    The logged power, delayed by ``effects.dead_time`` when set, heats the fiber
-    through thermal.HeatBalance (``thermal.delivered_power_ratio``, the power loss,
-    the ambient offset); the start is ``thermal.initial_temperature_rise`` (K) above
-    ambient. Exact for the linear eq. (1) (exact_thermal_response); with radiation
-    or nonlinear convection, eq. (1') by Runge-Kutta (quasistatic_effects).
+    The logged power heats the fiber through thermal.HeatBalance: P_in = (1 - eta) r
+    P (``thermal.delivered_power_ratio``, the power loss), delayed by
+    ``effects.dead_time`` when set; the start is ``thermal.initial_temperature_rise``
+    (K) above ambient. While eq. (1) is linear, its exact step
+    (thermal.heat_step_exact) over every interval at once: the temperature relaxes to
+    T_inf + P_in / (h c_s A_0) with the time constant m_t c_p / (h c_s A_0), a linear
+    filter, and the start's excess decays with the same time constant
+    (superposition). With radiation or nonlinear convection, eq. (1') by the
+    stepper's Runge-Kutta step (quasistatic_effects).
     """
     time = np.asarray(time, dtype=float)
     balance = HeatBalance.of(params)
-    power = delayed_input(time, np.asarray(power, dtype=float), params.effects.dead_time)
+    power = np.asarray(power, dtype=float)
     rise = params.thermal.initial_temperature_rise
     if not balance.linear:
-        return qe.nonlinear_thermal_response(time, power, balance, rise)
-    return exact_thermal_response(time, power, balance, balance.ambient + rise)
-
-
-def exact_thermal_response(time, power, balance, start):
-    """Return T (degC) at ``time`` (s) of the linear eq. (1) from ``start`` (degC).
-
-    thermal.heat_step_exact over each interval [t_k, t_k+1), the logged power
-    ``power[k]`` (W) held: T_k+1 = T*_k + (T_k - T*_k) d_k, T*_k where eq. (1)
-    rests under that power (thermal.steady_temperature) and d_k = exp(-G h_k / C)
-    (thermal.heat_decay); on a uniform grid all steps at once, as one linear filter.
-    """
-    time = np.asarray(time, dtype=float)
-    out = np.full(time.size, float(start))
-    if time.size < 2:
-        return out
-    target = steady_temperature(np.asarray(power[:-1], dtype=float), balance)  # degC
-    step = uniform_step(time)
-    if step is not None:
-        a = heat_decay(step, balance)
-        out[1:] = lfilter([1.0 - a], [1.0, -a], target, zi=[a * start])[0]
-        return out
-    held = np.asarray(power, dtype=float).tolist()
-    for k, decay in enumerate(heat_decay(np.diff(time), balance).tolist()):
-        out[k + 1] = heat_step_exact(out[k], held[k], decay, balance)
-    return out
+        delayed = delayed_input(time, power, params.effects.dead_time)
+        return qe.nonlinear_thermal_response(time, delayed, balance, rise)
+    heating = delayed_input(time, balance.gain * power, params.effects.dead_time)  # W, P_in
+    tau = balance.capacity / balance.conductance  # s
+    response = balance.ambient + first_order_response(time, heating / balance.conductance, tau)
+    if rise > 0.0 and time.size:
+        response = response + rise * np.exp(-(time - time[0]) / tau)
+    return response
 
 
 def uniform_step(time):
