@@ -175,7 +175,7 @@ class TcaSimNode(Node):
 
     def _republish(self):
         """Publish the last tick again (same values): lockstep before the first command."""
-        self._clock_pub.publish(ClockMsg(clock=time_msg(self.core.sim_ns)))
+        self._clock_pub.publish(ClockMsg(clock=time_msg(self.core.own_clock.sim_ns)))
         self._outputs.emit(self.core.episode.sample, self.core.cfg, self._rig)
 
     def _publish_state(self, now_ns):
