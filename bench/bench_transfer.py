@@ -27,6 +27,7 @@ from tca_ros.calibration.lumped import fit_lumped, lumped_nrmse
 from tca_ros.calibration.predictions import full_nrmse
 from tca_ros.calibration.validation import condition_of, repeat_floor
 from tca_ros.model.muscle import describe_muscle, MuscleSpec
+from tca_ros.params.thread_presets import load_thread_presets
 from tca_ros.records.data import read_record
 
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -105,7 +106,7 @@ def main(argv=None):
     for variant in args.variants:
         cells = []
         for name, records in data.items():
-            params = describe_muscle(MUSCLES[name]).params
+            params = describe_muscle(MUSCLES[name], load_thread_presets()).params
             start = time.perf_counter()
             ours, lumped, bad = held_out(records, params, args.model, VARIANTS[variant])
             seconds = time.perf_counter() - start

@@ -13,10 +13,12 @@ from tca_ros.model.kinetostatic_models import make_kinetostatic_model
 from tca_ros.model.kinetostatics import natural_length
 from tca_ros.model.muscle import describe_muscle, loaded_length_at_ambient, MuscleError, \
     MuscleSpec
-from tca_ros.model.params import load_params, shipped_configs, to_flat_dict
+from tca_ros.model.tca_params import to_flat_dict
 from tca_ros.model.thermal import (heat_capacity, thermal_conductance,
                                    thermal_time_constant)
-from tca_ros.model.thread_presets import thread_presets_path
+from tca_ros.params.config_search import shipped_configs
+from tca_ros.params.files import load_params
+from tca_ros.params.thread_presets import load_thread_presets, thread_presets_path
 from tca_ros.rod.reference import conical_spiral_reference
 
 ALPHA_DEG = 22.42  # free-stroke alpha* (Table III)
@@ -241,13 +243,13 @@ def test_self_coiled_contact_estimate_is_near_the_paper_notes():
     assert angle == pytest.approx(17.0, abs=0.5)
     spec = MuscleSpec(thread='nylon66_silver', thread_diameter=0.42e-3, coil='self_coiled',
                       pitch_angle_deg=18.66, natural_length=0.056, model='cst')
-    made = describe_muscle(spec)
+    made = describe_muscle(spec, load_thread_presets())
     assert made.params.coil.radius == pytest.approx(0.227e-3, rel=ROUND_OFF)
     assert 'ESTIMATED' in made.derived['coil_radius'].note
     with pytest.raises(MuscleError, match=r'^pitch_angle_deg = 16 deg: at or below'):
         describe_muscle(MuscleSpec(thread='nylon66_silver', thread_diameter=0.42e-3,
                                    coil='self_coiled', pitch_angle_deg=16.0,
-                                   natural_length=0.056, model='cst'))
+                                   natural_length=0.056, model='cst'), load_thread_presets())
 
 
 def test_thread_presets_are_not_listed_as_tca_configs():

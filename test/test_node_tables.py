@@ -4,7 +4,7 @@ import time
 
 import pytest
 
-from tca_ros.model.params import load_params
+from tca_ros.params.files import load_params
 from tca_ros.ros.node_tables import muscle_temperatures, table_rows, TableRows
 
 

@@ -20,8 +20,9 @@ from tca_ros.cli.main import main
 from tca_ros.model.heat_transfer import natural_convection_coefficient, radiation_coefficient, \
     REFERENCE_RISE_K, still_air_loss_exponent
 from tca_ros.model.muscle import describe_muscle, MuscleSpec
-from tca_ros.model.params import load_params
 from tca_ros.model.thermal import heat_capacity
+from tca_ros.params.files import load_params
+from tca_ros.params.thread_presets import load_thread_presets
 from tca_ros.synthetic.realistic import bench_record
 
 SALP = MuscleSpec(thread='nylon66_silver', thread_diameter=0.45e-3, coil='mandrel',
@@ -52,7 +53,7 @@ def plant():
 
     Its heat loss grows with the rise as a thread's in still air does (describe_muscle).
     """
-    start = describe_muscle(SALP).params
+    start = describe_muscle(SALP, load_thread_presets()).params
     c2, _, c0 = start.fiber.gamma_coefficients
     truth = start.with_values(**{'effects.second_thermal_lag': 4.0, 'fiber.untwist_gain': 0.8,
                                  'fiber.gamma_coefficients': [c2, -2.0 * c2 * -20.0, c0]})
@@ -93,7 +94,7 @@ def test_a_shifted_or_implausible_heat_capacity_is_marked(factor, flag):
     # plants whose heat capacity is 1, 4 and 7 x the thread's m_t c_p: the tight prior
     # (x/÷ 1.3) holds the value back, but a shift beyond 2 prior spreads is a finding
     # and one past the physical factor of 2 is implausible
-    start = describe_muscle(SALP).params
+    start = describe_muscle(SALP, load_thread_presets()).params
     truth = start.with_values(**{'fiber.specific_heat': factor * start.fiber.specific_heat})
     rng = np.random.default_rng(2)
     records = [bench_record(truth, w, 0.02, rng, drift=0.0) for w in (0.3, 0.6)]
@@ -114,7 +115,7 @@ def test_a_shifted_or_implausible_heat_capacity_is_marked(factor, flag):
 
 
 def test_a_load_above_the_assumed_strength_is_a_warning_not_a_refusal():
-    start = describe_muscle(SALP).params
+    start = describe_muscle(SALP, load_thread_presets()).params
     assert start.fiber.break_force < 0.4 * 9.81
     truth = start.with_values(**{'fiber.break_force': 6.0})
     rng = np.random.default_rng(0)
@@ -148,7 +149,7 @@ def test_a_measured_description_reveals_a_power_loss_that_a_guessed_one_absorbs(
     # measured (1-5 %), the heat loss, gain and delivered power cannot all take the loss:
     # the calibration says which left the description and names power_loss among the
     # effects it can stand for. Described as guessed (x/÷ 3), the same loss is absorbed.
-    start = describe_muscle(SALP).params
+    start = describe_muscle(SALP, load_thread_presets()).params
     truth = start.with_values(**{'effects.power_loss_fraction': 0.25})
     rng = np.random.default_rng(3)
     records = [bench_record(truth, w, 0.02, rng, drift=0.0) for w in (0.3, 0.45, 0.6)]
@@ -205,7 +206,7 @@ def test_still_airs_loss_law_is_a_power_of_the_rise_over_the_working_range():
 
 
 def test_the_description_states_still_airs_loss_law_and_a_flow_drops_it():
-    start = describe_muscle(SALP).params
+    start = describe_muscle(SALP, load_thread_presets()).params
     n = still_air_loss_exponent(SALP.thread_diameter, SALP.ambient_degc)
     assert start.effects.convection_exponent == pytest.approx(n)
     assert start.effects.convection_reference_dt == REFERENCE_RISE_K
@@ -225,7 +226,7 @@ def test_a_muscle_in_still_air_is_predicted_at_another_power_better_with_the_los
     # the plant's heat loss grows with the rise as still air's does; calibrated on
     # 0.3 and 0.45 W, it predicts 0.8 W better from the description that states the
     # law than from the paper's constant h
-    start = describe_muscle(SALP).params
+    start = describe_muscle(SALP, load_thread_presets()).params
     truth = start.with_values(**{'fiber.untwist_gain': 0.8})
     rng = np.random.default_rng(5)
     train = [bench_record(truth, w, 0.02, rng, drift=0.0) for w in (0.3, 0.45)]

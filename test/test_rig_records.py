@@ -2,8 +2,8 @@
 import numpy as np
 import pytest
 
-from tca_ros.model.params import load_params
 from tca_ros.model.rig_simulation import simulate_rig
+from tca_ros.params.files import load_params
 from tca_ros.records.data import DataError, read_record, Record, write_csv_record
 
 

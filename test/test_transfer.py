@@ -13,7 +13,8 @@ from tca_ros.calibration.transfer import read_trained_range
 from tca_ros.calibration.validation import repeat_floor
 from tca_ros.cli.main import main
 from tca_ros.model.muscle import describe_muscle, MuscleSpec
-from tca_ros.model.params import dump_params
+from tca_ros.params.files import dump_params
+from tca_ros.params.thread_presets import load_thread_presets
 from tca_ros.records.data import write_csv_record
 from tca_ros.synthetic.realistic import bench_record
 
@@ -31,7 +32,7 @@ def run(argv):
 def files(tmp_path_factory):
     """Return (dir, start config, train paths, test paths) of a lagging muscle."""
     root = tmp_path_factory.mktemp('transfer')
-    start = describe_muscle(SPEC).params
+    start = describe_muscle(SPEC, load_thread_presets()).params
     c2, _, c0 = start.fiber.gamma_coefficients
     truth = start.with_values(**{'effects.second_thermal_lag': 4.0,
                                  'fiber.gamma_coefficients': [c2, 40.0 * c2, c0]})
@@ -100,7 +101,7 @@ def test_an_air_flow_is_a_condition_with_its_own_heat_loss_scale():
     # a filmed muscle's time constant fell 2.8x with a fan: the same muscle at 0.4 and
     # 0.6 W in still air and at 0.8 W with 2.8x the heat loss, calibrated together
     from tca_ros.calibration.calibration import calibrate
-    start = describe_muscle(SPEC).params
+    start = describe_muscle(SPEC, load_thread_presets()).params
     fan = start.with_values(**{'thermal.convection_coefficient':
                                2.8 * start.thermal.convection_coefficient})
     rng = np.random.default_rng(8)
@@ -137,7 +138,7 @@ def test_an_isotonic_calibration_predicts_the_force_of_an_isometric_rig(files, t
     cal = str(root / 'cal_iso.yaml')
     assert run(['calibrate', paths['a'], paths['b'], paths['c'], '--config', config,
                 '--out', cal, '--model', 'cst', '--quiet'])[0] == 0
-    start = describe_muscle(SPEC).params
+    start = describe_muscle(SPEC, load_thread_presets()).params
     c2, _, c0 = start.fiber.gamma_coefficients
     truth = start.with_values(**{'effects.second_thermal_lag': 4.0,
                                  'fiber.gamma_coefficients': [c2, 40.0 * c2, c0],
@@ -165,7 +166,7 @@ def test_an_isometric_record_calibrates_the_same_params_and_predicts_a_load(tmp_
     from tca_ros.calibration.predictions import full_nrmse
     from tca_ros.model.rig_simulation import simulate_rig
     from tca_ros.records.data import read_record
-    start = describe_muscle(SPEC).params
+    start = describe_muscle(SPEC, load_thread_presets()).params
     truth = start.with_values(**{'fiber.untwist_gain': 1.3, 'effects.second_thermal_lag': 2.0})
     rng = np.random.default_rng(4)
     t = np.arange(0.0, 60.0, 0.2)
@@ -224,7 +225,7 @@ def test_a_spring_rig_record_calibrates_and_is_predicted(tmp_path):
     from tca_ros.calibration.calibration import calibrate
     from tca_ros.model.rig_simulation import simulate_rig
     from tca_ros.records.data import read_record
-    start = describe_muscle(SPEC).params
+    start = describe_muscle(SPEC, load_thread_presets()).params
     truth = start.with_values(**{'fiber.untwist_gain': 1.3, 'rig.mode': 'spring',
                                  'rig.pretension': 0.1, 'rig.spring_stiffness': 20.0})
     rng = np.random.default_rng(6)

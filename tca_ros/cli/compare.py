@@ -131,7 +131,7 @@ def _check_folder(path, option):
 def compare(args, out):
     """Simulate each record's inputs; write a PNG per record; print the errors (CSV)."""
     from tca_ros.cli.common import checked_config
-    from tca_ros.model.params import load_params
+    from tca_ros.params.files import load_params
     from tca_ros.records.data import read_record
     if args.rig not in (None, 'dead_weight'):
         raise InputError(f'--rig = {args.rig}: --compare simulates dead-weight records '

@@ -67,7 +67,8 @@ def run_demo(out_dir, sim_seconds=30.0, config='free_stroke', model=None):
     model : str, optional
         rod | cst | love; default the params file's (cst when rod is not installed).
     """
-    from tca_ros.model.params import load_params, resolve_config
+    from tca_ros.params.config_search import resolve_config
+    from tca_ros.params.files import load_params
 
     out = pathlib.Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)

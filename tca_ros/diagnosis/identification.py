@@ -20,7 +20,7 @@ from tca_ros.diagnosis.parameter_names import NOMINAL_NAMES
 from tca_ros.diagnosis.search import MIN_GAIN_PERCENT, search_effects
 from tca_ros.diagnosis.verdict import channel_stats, decide_verdict, gain, holds_one_load, \
     needs_explaining, NOTHING_TO_EXPLAIN, ONE_LOAD_NOTE, pooled_heldout_rmse
-from tca_ros.model.params import SPECS
+from tca_ros.model.params_schema import SPECS
 from tca_ros.records.data import DataError, record_config
 
 VERDICTS = ('explained', 'adequate', 'unexplained')
@@ -259,7 +259,7 @@ def _file_values(calibrated, params, config, model):
     if not calibrated:
         return {}
     from tca_ros.diagnosis.parameter_names import calibrated_values
-    from tca_ros.model.params import load_params
+    from tca_ros.params.files import load_params
     return calibrated_values(params, load_params(config, model=model))
 
 
@@ -270,7 +270,7 @@ def _read(data_path, config, calibrated, model):
     fits run (the extended params file must name the model its effects were fitted
     with).
     """
-    from tca_ros.model.params import load_params
+    from tca_ros.params.files import load_params
     paths = ([data_path] if isinstance(data_path, (str, os.PathLike))
              else list(data_path))
     records = [read_any(p, config) for p in paths]

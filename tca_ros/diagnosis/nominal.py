@@ -90,7 +90,7 @@ def nominal_problems(records, params_of, recalibrated, options, paths):
 
 def read_any(path, config):
     """Return the Record of a CSV or a rosbag2 recording (a bag needs ``config``)."""
-    from tca_ros.model.params import load_params
+    from tca_ros.params.files import load_params
     from tca_ros.records.data import read_bag_record
     if os.path.isdir(path) or str(path).endswith('.mcap'):
         if config is None:

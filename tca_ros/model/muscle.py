@@ -8,7 +8,8 @@ the coil radius r*, the fiber length l_t, the coil count, the contact angle, the
 inserted twist, and the thermal and electrical constants. docs/describe.md gives the
 derivations and the decisions behind them.
 
-The thread presets are read by thread_presets.py, the geometric relations are in
+The thread presets (ThreadPreset, in muscle_spec.py) are read from their file by
+tca_ros.params.thread_presets and passed in; the geometric relations are in
 coil_geometry.py, the maker's description (MuscleSpec) and its checks in muscle_spec.py.
 
 Conventions
@@ -40,11 +41,12 @@ from tca_ros.model.heat_transfer import REFERENCE_RISE_K, still_air_loss_exponen
 from tca_ros.model.kinetostatic_models import make_kinetostatic_model
 from tca_ros.model.kinetostatics import loaded_length
 from tca_ros.model.muscle_spec import check_exactly_one, check_positive, check_spec, \
-    COIL_TYPES, is_finite, MuscleError, MuscleSpec, SPEC_UNITS  # noqa: F401 (COIL_TYPES: API)
-from tca_ros.model.params import from_flat_dict, GRAVITY, ParameterError, SCHEMA, SPECS
+    COIL_TYPES, is_finite, MuscleError, MuscleSpec, SPEC_UNITS, \
+    ThreadPreset  # noqa: F401 (COIL_TYPES: API)
+from tca_ros.model.params_schema import GRAVITY, ParameterError, SCHEMA, SPECS
+from tca_ros.model.tca_params import from_flat_dict
 from tca_ros.model.thermal import (fiber_mass, heat_capacity, surface_area,
                                    thermal_conductance, thermal_time_constant)
-from tca_ros.model.thread_presets import load_thread_presets, ThreadPreset
 
 #: tca_type written for each way of coiling (a mandrel-coiled helix is the paper's
 #: free-stroke TCA).
@@ -83,8 +85,11 @@ class MuscleDescription:
     derived: dict
 
 
-def describe_muscle(spec, presets=None):
+def describe_muscle(spec, presets):
     """Return the MuscleDescription of ``spec`` (a MuscleSpec).
+
+    ``presets`` maps thread names to ThreadPreset (tca_ros.params.thread_presets
+    .load_thread_presets reads the shipped ones).
 
     Raises
     ------
@@ -92,7 +97,6 @@ def describe_muscle(spec, presets=None):
         One line naming the field, its value and why the muscle cannot exist or is
         not fully described.
     """
-    presets = presets if presets is not None else load_thread_presets()
     preset = check_spec(spec, presets)
     r_t = 0.5 * spec.thread_diameter
     derived = {}

@@ -31,7 +31,7 @@ import re
 
 import numpy as np
 
-from tca_ros.model.params import SPECS
+from tca_ros.model.params_schema import SPECS
 from tca_ros.records.data_bag import read_bag_record
 # the bounds marked noqa are not used here: the CLI checks its options against them
 from tca_ros.records.record import ABSOLUTE_ZERO_DEGC, MAX_LOAD_N, MAX_POWER_W  # noqa: F401
@@ -83,7 +83,7 @@ def record_config(record):
     never any other path: a record is data, and only the command line may point
     the reader at arbitrary files. Raises DataError naming the header line.
     """
-    from tca_ros.model.params import shipped_configs
+    from tca_ros.params.config_search import shipped_configs
     name = str(record.meta.get('tca', '')).strip()
     folder = os.path.dirname(os.path.abspath(record.source)) if record.source else None
     plain = name not in ('', '.', '..') and os.path.basename(name) == name and \

@@ -25,7 +25,9 @@ from rosgraph_msgs.msg import Clock as ClockMsg
 from std_msgs.msg import Float64
 from std_srvs.srv import Trigger
 
-from tca_ros.model.params import from_flat_dict, ParameterError, SCHEMA, SPECS
+from tca_ros.model.params_schema import ParameterError, SCHEMA, SPECS
+from tca_ros.model.tca_params import from_flat_dict
+from tca_ros.params.row_cache import install_disk_cache
 from tca_ros.ros.node_cmdline import check_ros_arguments, init_quietly, log_fatal
 from tca_ros.ros.node_core import NodeCore
 from tca_ros.ros.node_diagnostics import DiagnosticsPublisher
@@ -173,7 +175,7 @@ class TcaSimNode(Node):
 
     def _republish(self):
         """Publish the last tick again (same values): lockstep before the first command."""
-        self._clock_pub.publish(ClockMsg(clock=time_msg(self.core.sim_ns)))
+        self._clock_pub.publish(ClockMsg(clock=time_msg(self.core.own_clock.sim_ns)))
         self._outputs.emit(self.core.episode.sample, self.core.cfg, self._rig)
 
     def _publish_state(self, now_ns):
@@ -266,6 +268,7 @@ def main(args=None):
     try:
         check_ros_arguments(sys.argv if args is None else args)
         init_quietly(args)
+        install_disk_cache()  # a conical table's rows solved once, read at the next start
         node = TcaSimNode()
         spin_resiliently(node)
     except ParameterError as exc:

@@ -13,7 +13,7 @@ import rclpy
 from rclpy._rclpy_pybind11 import RCLError
 import yaml
 
-from tca_ros.model.params import ParameterError
+from tca_ros.model.params_schema import ParameterError
 
 
 def ros_argument_rules(argv):

@@ -1,13 +1,13 @@
 """The rows of a conical rod table, built off the node's executor.
 
 The conical TCA's rod table (tca_ros.model.conical_table) builds a temperature row
-(10 K) the first time a query needs it, in 1 to 2 s of rod solves (cached on disk for
-the next start). Built inside a physics step, that stops the node's outputs and
-services for as long. ``TableRows`` builds them on a worker thread instead, nearest
-the muscle's temperature first, until the table is complete; the node asks
-``missing(temperatures)`` before each step and holds the physics (outputs and services
-go on) while a row it would use is not ready. A helical TCA's tables are built whole
-when the model is made: nothing to do then. No rclpy here.
+(10 K) the first time a query needs it, in 1 to 2 s of rod solves (kept on disk for
+the next start by tca_ros.params.row_cache). Built inside a physics step, that stops
+the node's outputs and services for as long. ``TableRows`` builds them on a worker
+thread instead, nearest the muscle's temperature first, until the table is complete;
+the node asks ``missing(temperatures)`` before each step and holds the physics
+(outputs and services go on) while a row it would use is not ready. A helical TCA's
+tables are built whole when the model is made: nothing to do then. No rclpy here.
 """
 import math
 import sys
