@@ -80,7 +80,7 @@ def format_table(rows):
     return '\n'.join(lines)
 
 
-def repeat_floor(records, channel=None):
+def repeat_floor(records, channel=None, normalised=True):
     """Return per record the nRMSE (-) of the mean of its repeats; nan without repeats.
 
     The repeats of a record are the other records at its condition (condition_of),
@@ -88,7 +88,8 @@ def repeat_floor(records, channel=None):
     the condition's mean response exactly would score. Different muscles and
     their history make repeats differ; no model of one muscle does better.
     ``channel(record)``: the measured array compared (default the displacement, m);
-    the score is RMSE / its peak.
+    the score is RMSE / its peak, or the RMSE itself (the channel's unit) when not
+    ``normalised``.
     """
     channel = channel or (lambda r: r.displacement)
     out = []
@@ -99,6 +100,6 @@ def repeat_floor(records, channel=None):
             out.append(float('nan'))
             continue
         mean = np.mean([np.interp(r.time, o.time, channel(o)) for o in others], axis=0)
-        peak = max(float(np.percentile(channel(r), 99.5)), 1e-9)
+        peak = max(float(np.percentile(channel(r), 99.5)), 1e-9) if normalised else 1.0
         out.append(float(np.sqrt(np.mean((channel(r) - mean) ** 2))) / peak)
     return out

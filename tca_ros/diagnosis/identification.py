@@ -6,6 +6,7 @@
 from dataclasses import dataclass, field
 import math
 import os
+import statistics
 import time as wallclock
 
 from tca_ros.calibration.candidates import ABSORBED, absorbed_candidates, parameters_at_bounds
@@ -229,6 +230,7 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
     extended_rmse, extended_stats, verdict, explanation = judgement
     if verdict in ('adequate', 'explained') and holds_one_load(records):
         notes.append(ONE_LOAD_NOTE)
+    notes.extend(repeat_notes(records, extended_rmse))
     helpful = []
     if verdict == 'unexplained' and effects:
         # what helps is shown, but an effect that leaves structure is not a cause
@@ -252,6 +254,27 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
         from tca_ros.diagnosis.report import write_report
         write_report(result, report_dir)
     return result
+
+
+def repeat_notes(records, rmse):
+    """Return a note comparing the held-out displacement RMSE (m) with the repeat spread.
+
+    Records of one muscle at one condition (calibration.validation.condition_of)
+    are repeats: the RMS difference of each from the mean of the others (m) is
+    what no model of the inputs can predict. A residual of that size is the
+    records' resolution, not a model error to name.
+    """
+    from tca_ros.calibration.validation import repeat_floor
+    spread = [s for s in repeat_floor(records, normalised=False) if s == s]
+    if not spread or 'displacement' not in rmse:
+        return []
+    floor, left = float(statistics.median(spread)), float(rmse['displacement'])
+    relation = 'below' if left < floor else 'above'
+    return [f'the held-out displacement RMSE ({left * 1e3:.3g} mm) is {relation} the spread '
+            f'between repeated runs at one condition ({floor * 1e3:.3g} mm, the median RMS '
+            f'difference of {len(spread)} records from the mean of their repeats): '
+            + ('a model error smaller than that spread cannot be resolved by these records'
+               if left < floor else 'the model misses more than the runs differ by')]
 
 
 def _file_values(calibrated, params, config, model):
