@@ -117,6 +117,28 @@ def test_an_air_flow_is_a_condition_with_its_own_heat_loss_scale():
                                                            rel=0.25)
 
 
+def test_an_air_flow_never_calibrated_is_predicted_with_its_priors_heat_loss():
+    # calibrated in still air only, the muscle runs at 0.8 W under a fan that takes 2.8x
+    # the heat away: predicted with the forced-air prior (2.5x) it is closer than as
+    # if the air were still
+    from tca_ros.calibration.calibration import calibrate
+    from tca_ros.calibration.conditions import scale_of
+    from tca_ros.calibration.predictions import full_nrmse
+    start = describe_muscle(SPEC, load_thread_presets()).params
+    fan = start.with_values(**{'thermal.convection_coefficient':
+                               2.8 * start.thermal.convection_coefficient,
+                               'effects.convection_exponent': 0.0})
+    rng = np.random.default_rng(9)
+    records = [bench_record(start, w, 0.02, rng, drift=0.0) for w in (0.4, 0.6)]
+    forced = bench_record(fan, 0.8, 0.02, rng, drift=0.0)
+    forced.meta['environment'] = 'forced_air'
+    cal = calibrate(records, start, model='cst', check=False)
+    assert cal.environments == {} and scale_of('forced_air', cal.environments) == 2.5
+    with_prior = full_nrmse(cal.params, [forced], 'cst')[0]
+    as_still = full_nrmse(cal.params, [forced], 'cst', scales={'forced_air': 1.0})[0]
+    assert with_prior < 0.5 * as_still, (with_prior, as_still)
+
+
 def test_an_environment_the_calibration_never_saw_is_an_extrapolation(files, tmp_path):
     root, config, paths = files
     cal = str(root / 'cal.yaml')
@@ -128,6 +150,7 @@ def test_an_environment_the_calibration_never_saw_is_an_extrapolation(files, tmp
     path.write_text(text)
     code, out = run(['validate', str(path), '--config', cal, '--model', 'cst'])
     assert code == 0 and 'environment forced_air not calibrated' in out, out
+    assert "taken at the prior 2.5x still air's" in out, out
 
 
 def test_an_isotonic_calibration_predicts_the_force_of_an_isometric_rig(files, tmp_path):
