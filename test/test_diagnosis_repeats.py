@@ -1,5 +1,6 @@
 """A diagnosis of repeated runs sets its residual beside the spread between the runs."""
 import numpy as np
+import pytest
 
 from tca_ros.diagnosis.identification import repeat_notes
 from tca_ros.records.data import Record
@@ -25,3 +26,25 @@ def test_records_without_repeats_get_no_note():
     # another power is another condition: no repeats, nothing to compare
     assert repeat_notes([_run(0.0), _run(0.002, power=2.0)], {'displacement': 0.001}) == []
     assert repeat_notes([_run(0.0)], {'displacement': 0.001}) == []
+
+
+def test_a_records_air_flow_scales_the_heat_loss_the_diagnosis_simulates():
+    # a record under a fan: the nominal model it is judged against loses heat as the
+    # calibration's predictions do, by the fitted scale or else the prior's 2.5x
+    from tca_ros.diagnosis.nominal import nominal_problems
+    from tca_ros.model.muscle import describe_muscle, MuscleSpec
+    from tca_ros.params.thread_presets import load_thread_presets
+    spec = MuscleSpec(thread='nylon66_silver', thread_diameter=0.45e-3, coil='mandrel',
+                      mandrel_diameter=0.8e-3, pitch_angle_deg=22.5, natural_length=0.05,
+                      resistance=13.3, mass=0.02, model='cst')
+    params = describe_muscle(spec, load_thread_presets()).params
+    run = _run(0.0, power=0.3, load=0.196)
+    run.power[:20] = 0.0
+    h = params.thermal.convection_coefficient
+    for meta, scales, factor in (({}, None, 1.0), ({'environment': 'forced_air'}, None, 2.5),
+                                 ({'environment': 'fan'}, {'forced_air': 3.0}, 3.0)):
+        run.meta = meta
+        problems = nominal_problems([run], [params], False, {'model': 'cst'}, ['r.csv'],
+                                    scales)[0]
+        assert problems[0].params.thermal.convection_coefficient == \
+            pytest.approx(factor * h), meta
