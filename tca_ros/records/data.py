@@ -337,7 +337,9 @@ def uniform_record(record, rate=None):
 def write_csv_record(record, path, comments=()):
     """Write ``record`` as a diagnosis CSV (header lines first, then columns).
 
-    ``comments`` are extra ``# text`` lines placed after the key lines.
+    ``comments`` are extra ``# text`` lines placed after the key lines; the
+    record's header entries beyond the required ones follow those (a ``key:``
+    line in ``comments`` takes the place of the entry of that key).
     """
     columns = ['time', 'power', 'load', 'displacement']
     arrays = [record.time, record.power, record.load, record.displacement]
@@ -354,6 +356,13 @@ def write_csv_record(record, path, comments=()):
     with open(path, 'w', encoding='utf-8') as fh:
         for key in REQUIRED_HEADER:
             fh.write(f'# {key}: {record.meta[key]}\n')
+        # the record's other header entries (its rig, environment, pretension, ...) are
+        # conditions of the run: written back, not lost
+        given = {str(line).split(':', 1)[0].strip() for line in comments}
+        for key, value in record.meta.items():
+            if key not in REQUIRED_HEADER and key not in given \
+                    and isinstance(value, (str, int, float)) and '\n' not in str(value):
+                fh.write(f'# {key}: {value}\n')
         for line in comments:
             fh.write(f'# {line}\n')
         fh.write(','.join(columns) + '\n')
