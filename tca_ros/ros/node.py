@@ -38,7 +38,7 @@ from tca_ros.ros.node_params import (  # noqa: F401  (re-exported: the node's pa
     numbers_as_declared_types, physics_dt, physics_steps_per_tick, READ_ONLY, REBUILD,
     validate_node_values)
 from tca_ros.ros.node_rigs import RigTopics
-from tca_ros.ros.node_spin import spin_resiliently
+from tca_ros.ros.node_spin import install_stop_handlers, spin_resiliently
 from tca_ros.ros.node_task import TaskPlayer
 
 CLOCK_QOS = QoSProfile(depth=1)  # reliable writer; rclpy's clock reader is best effort
@@ -265,6 +265,7 @@ def main(args=None):
     node = None
     try:
         check_ros_arguments(sys.argv if args is None else args)
+        install_stop_handlers()  # SIGINT and SIGTERM stop the spin, not rclpy
         init_quietly(args)
         node = TcaSimNode()
         spin_resiliently(node)
