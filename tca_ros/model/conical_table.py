@@ -116,21 +116,33 @@ class ConicalTable:
 
     def row(self, i):
         """Return ConicalRow i (T = temp0 + i temp_step), from memory, disk or solved."""
-        row = self._rows.get(i)
+        row = self.cached_row(i)
         if row is None:
-            row = self._rows[i] = self._load_or_build(i)
+            row = self._rows[i] = self._build_and_save(i)
         return row
 
-    def _load_or_build(self, i):
-        temp = self.temp0 + i * self.temp_step
-        path = os.path.join(cache_dir(), f'conical_{self._key}_{i:03d}.npz')
-        try:
-            with np.load(path) as data:
-                return ConicalRow(**{k: (data[k] if data[k].ndim else float(data[k]))
-                                     for k in data.files})
-        except (OSError, ValueError, KeyError, TypeError):
-            pass
-        row = build_row(self.params, temp, self.natural_drop)
+    def cached_row(self, i):
+        """Return ConicalRow i from memory or the disk cache, or None (nothing solved)."""
+        row = self._rows.get(i)
+        if row is None:
+            try:
+                with np.load(self._path(i)) as data:
+                    row = self._rows[i] = ConicalRow(**{
+                        k: (data[k] if data[k].ndim else float(data[k])) for k in data.files})
+            except (OSError, ValueError, KeyError, TypeError):
+                return None
+        return row
+
+    def insert(self, i, row):
+        """Keep ConicalRow i built elsewhere (another process, from the same params)."""
+        self._rows[i] = row
+
+    def _path(self, i):
+        return os.path.join(cache_dir(), f'conical_{self._key}_{i:03d}.npz')
+
+    def _build_and_save(self, i):
+        row = build_row(self.params, self.temp0 + i * self.temp_step, self.natural_drop)
+        path = self._path(i)
         try:
             os.makedirs(os.path.dirname(path), exist_ok=True)
             partial = f'{path}.{os.getpid()}.tmp.npz'
