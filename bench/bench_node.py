@@ -45,6 +45,7 @@ TICKS_PER_SECOND = os.sysconf('SC_CLK_TCK')  # /proc/<pid>/stat time unit
 CONFIGS = ('free_stroke', 'self_coiled', 'conical')  # the shipped config/*.yaml
 STEP_POWER = 2.0  # W, the step of the output-gap figure
 COMMAND_PERIOD = 0.1  # s between its power commands (10 Hz, as a slow controller)
+PUBLISH_PERIOD = 0.01  # s, the shipped configs' publish_rate 100 Hz
 
 
 def _cpu_seconds(pid):
@@ -81,7 +82,7 @@ def _start(log_dir, model, *args, name='tca', config=CONFIG, env=None):
 
 def bench_gap(log_dir, config, seconds, cache):
     """Return (longest gap (s), its start (s from the step), ready time (s), watchdog lines,
-    longest gap between joint_states stamps (s)).
+    longest gap between joint_states stamps (s), gaps between stamps of 3 periods or more).
 
     The node starts with its config's model and the table cache ``cache`` (a directory);
     a probe sends STEP_POWER at 10 Hz for ``seconds`` and records when each
@@ -108,12 +109,13 @@ def bench_gap(log_dir, config, seconds, cache):
         times = [t for t, _ in rows if t >= t0]
         gap, at = max((b - a, a - t0) for a, b in zip(times, times[1:]))
         stamps = [_stamp_s(m) for t, m in joints if t >= t0]
-        stamp_gap = max(b - a for a, b in zip(stamps, stamps[1:]))
+        stamp_gaps = [b - a for a, b in zip(stamps, stamps[1:])]
+        late = sum(g >= 3 * PUBLISH_PERIOD for g in stamp_gaps)
         watchdog = node.log().count('watchdog')
     finally:
         probe.close()
         node.stop()
-    return gap, at, ready, watchdog, stamp_gap
+    return gap, at, ready, watchdog, max(stamp_gaps), late
 
 
 def bench_cpu(log_dir, model, seconds):
@@ -355,15 +357,16 @@ def _print_gap_table(seconds, busy):
           f'load average {load1:.1f} on {os.cpu_count()} cores, executor '
           f'{os.environ.get("TCA_EXECUTOR", "default")})')
     print(f'{"config":28s} {"ready (s)":>10s} {"gap (ms)":>10s} {"periods":>8s} '
-          f'{"at (s)":>7s} {"node gap (ms)":>14s} {"watchdog lines":>15s}')
+          f'{"at (s)":>7s} {"node gap (ms)":>14s} {"node gaps >= 3":>15s} {"watchdog":>9s}')
     with tempfile.TemporaryDirectory() as log_dir:
         runs = [(config, 'empty cache', config) for config in CONFIGS]
         runs.append(('conical', 'run 1 rows cached', 'conical'))
         for config, cache_state, cache in runs:
-            gap, at, ready, watchdog, node_gap = bench_gap(
+            gap, at, ready, watchdog, node_gap, late = bench_gap(
                 log_dir, config, seconds, pathlib.Path(log_dir) / f'cache_{cache}')
             print(f'{config + ", " + cache_state:28s} {ready:10.1f} {1e3 * gap:10.1f} '
-                  f'{gap / 0.01:8.1f} {at:7.2f} {1e3 * node_gap:14.1f} {watchdog:15d}')
+                  f'{gap / PUBLISH_PERIOD:8.1f} {at:7.2f} {1e3 * node_gap:14.1f} {late:15d} '
+                  f'{watchdog:9d}')
 
 
 if __name__ == '__main__':

@@ -89,7 +89,7 @@ class RowProcess:
 
 
 def serve_rows(stdin, stdout):
-    """The child of RowProcess: answer row indices from ``stdin`` until it closes."""
+    """Answer row indices from ``stdin`` until it closes (the child of RowProcess)."""
     try:
         table = cached_conical_model(pickle.load(stdin)).table
         while True:
