@@ -134,7 +134,7 @@ def _run(out, path, model, sim_seconds, env):
     # controller (wait_for_setpoint) commands only once it has a setpoint, which this
     # recorder sends on every state it receives: sim time 0 waits for the whole loop.
     # tca_pid takes its time from the state's stamps: without use_sim_time it reads no
-    # /clock, one message less per tick (docs/node.md, lockstep speed).
+    # /clock, one message less per tick (docs/node_figures.md, lockstep speed).
     pid = _start('tca_ros.ros.pid_node', ['-p', 'wait_for_setpoint:=true'],
                  out / 'demo_pid.log', env)
     tca = _start('tca_ros.ros.node', ['--params-file', path, '-p', f'model:={model}',
