@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from tca_ros.calibration.transfer import read_trained_range
-from tca_ros.calibration.validation import repeat_floor
+from tca_ros.calibration.validation import format_table, HeldOut, repeat_floor
 from tca_ros.cli.main import main
 from tca_ros.model.muscle import describe_muscle, MuscleSpec
 from tca_ros.params.files import dump_params
@@ -95,6 +95,17 @@ def test_the_repeat_floor_is_the_mean_of_the_other_repeats():
                                                       ** 2)) / np.percentile(a.displacement,
                                                                              99.5))
     assert np.isnan(floors[3])
+
+
+def test_loco_medians_name_power_and_load_so_one_power_at_two_loads_gives_two_rows():
+    rows = [HeldOut('d/rec_1W_light.csv', (1.0, 0.2), 0.05, 0.20, 0.10),
+            HeldOut('d/rec_1W_heavy.csv', (1.0, 0.5), 0.09, 0.30, 0.12),
+            HeldOut('d/rec_2W.csv', (2.0, 0.2), 0.04, 0.25, 0.11)]
+    medians = [line for line in format_table(rows).splitlines() if line.startswith('median')]
+    labels = [line[:53].strip() for line in medians]
+    assert labels == ['median P=1 W, F=0.2 N', 'median P=1 W, F=0.5 N',
+                      'median P=2 W, F=0.2 N', 'median']
+    assert medians[1].split()[-3:] == ['9.0%', '30.0%', '12.0%']  # the heavy load's own row
 
 
 def test_an_air_flow_is_a_condition_with_its_own_heat_loss_scale():

@@ -131,18 +131,30 @@ class ConicalTable:
 
     def row(self, i):
         """Return ConicalRow i (T = temp0 + i temp_step), from memory, store or solved."""
-        row = self._rows.get(i)
+        row = self.cached_row(i)
         if row is None:
-            row = self._rows[i] = self._load_or_build(i)
+            row = self._rows[i] = self._build_and_save(i)
         return row
 
-    def _load_or_build(self, i):
-        store = self._store if self._store is not None else _default_store
-        row = store.load(self._key, i) if store is not None else None
+    def cached_row(self, i):
+        """Return ConicalRow i from memory or the row store, or None (nothing solved)."""
+        row = self._rows.get(i)
         if row is None:
-            row = build_row(self.params, self.temp0 + i * self.temp_step, self.natural_drop)
-            if store is not None:
-                store.save(self._key, i, row)
+            store = self._store if self._store is not None else _default_store
+            row = store.load(self._key, i) if store is not None else None
+            if row is not None:
+                self._rows[i] = row
+        return row
+
+    def insert(self, i, row):
+        """Keep ConicalRow i built elsewhere (another process, from the same params)."""
+        self._rows[i] = row
+
+    def _build_and_save(self, i):
+        row = build_row(self.params, self.temp0 + i * self.temp_step, self.natural_drop)
+        store = self._store if self._store is not None else _default_store
+        if store is not None:
+            store.save(self._key, i, row)
         return row
 
     def build_all(self):
