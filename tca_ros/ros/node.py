@@ -23,7 +23,6 @@ from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.qos import QoSProfile
 from rosgraph_msgs.msg import Clock as ClockMsg
-from std_msgs.msg import Float64
 from std_srvs.srv import Trigger
 
 from tca_ros.model.params_schema import ParameterError, SCHEMA, SPECS
