@@ -63,6 +63,7 @@ class RowProcess:
         self._proc = subprocess.Popen(
             [sys.executable, '-m', 'tca_ros.ros.node_tables'], stdin=subprocess.PIPE,
             stdout=subprocess.PIPE, env=env, start_new_session=True)
+        lower_priority(self._proc.pid)  # from its start: its imports take ~1 s of CPU too
         atexit.register(self.close)
         self._send(params)
 
@@ -90,19 +91,19 @@ class RowProcess:
             pipe.close()
 
 
-def lower_priority(nice=ROW_NICE):
-    """Run this process (and its session's autogroup) at ``nice`` or lower; best effort.
+def lower_priority(pid, nice=ROW_NICE):
+    """Run process ``pid`` (and its session's autogroup) at ``nice`` or lower; best effort.
 
     Linux schedules each session as a group of its own (autogroup) when
-    /proc/sys/kernel/sched_autogroup_enabled is 1: the process's nice then weighs only
+    /proc/sys/kernel/sched_autogroup_enabled is 1: a process's nice then weighs only
     inside its group, the group's nice against the node's.
     """
     try:
-        os.nice(max(nice - os.nice(0), 0))
+        os.setpriority(os.PRIO_PROCESS, pid, max(nice, os.getpriority(os.PRIO_PROCESS, pid)))
     except OSError:
         pass
     try:
-        with open('/proc/self/autogroup', 'w') as autogroup:
+        with open(f'/proc/{pid}/autogroup', 'w') as autogroup:
             autogroup.write(str(nice))
     except OSError:
         pass  # no autogroup (another kernel or OS): the process's nice is what counts
@@ -253,5 +254,4 @@ class TableRows:
 if __name__ == '__main__':
     answers = os.fdopen(os.dup(sys.stdout.fileno()), 'wb')
     os.dup2(sys.stderr.fileno(), sys.stdout.fileno())  # a stray print goes to stderr
-    lower_priority()
     serve_rows(sys.stdin.buffer, answers)
