@@ -9,8 +9,7 @@ import pytest
 
 from tca_ros.model.conical_table import build_row, cached_conical_model
 from tca_ros.params.files import load_params
-from tca_ros.ros.node_tables import (
-    muscle_temperatures, ROW_NICE, RowProcess, table_rows, TableRows)
+from tca_ros.ros.node_tables import muscle_temperatures, RowProcess, table_rows, TableRows
 
 CONICAL = pathlib.Path(__file__).resolve().parents[1] / 'config' / 'conical.yaml'
 
@@ -129,8 +128,6 @@ def test_a_conical_row_is_solved_in_a_child_process_as_it_would_be_here(
         row = child.build(3)
         pid = child._proc.pid
         assert pid != os.getpid() and child._proc.poll() is None
-        # at a lower priority than the node (nice ROW_NICE, or lower if started so)
-        assert os.getpriority(os.PRIO_PROCESS, pid) >= max(ROW_NICE, os.nice(0))
     finally:
         child.close()
     assert child._proc.poll() is not None  # close() ended it

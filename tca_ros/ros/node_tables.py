@@ -10,8 +10,7 @@ go on) while a row it would use is not ready. The worker thread only waits: the 
 solves run in a child process (``RowProcess``, ``python -m tca_ros.ros.node_tables``),
 so they take neither the node's interpreter lock nor its CPU time slice (solved in a
 thread of the node, they stretched the gaps between its outputs to 50-70 ms on a loaded
-machine, docs/node.md), at nice ROW_NICE so that the node's ticks preempt them. A
-helical TCA's tables are built whole when the model is made:
+machine, docs/node.md). A helical TCA's tables are built whole when the model is made:
 nothing to do then. No rclpy here.
 """
 import atexit
@@ -25,7 +24,6 @@ import threading
 from tca_ros.model.conical_table import cached_conical_model
 
 MARGIN_ROWS = 1  # rows beyond those the temperatures use now (~10 K of headroom)
-ROW_NICE = 10  # nice of the row process: the node's ticks preempt its solves
 PACKAGE_ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 
@@ -63,7 +61,6 @@ class RowProcess:
         self._proc = subprocess.Popen(
             [sys.executable, '-m', 'tca_ros.ros.node_tables'], stdin=subprocess.PIPE,
             stdout=subprocess.PIPE, env=env, start_new_session=True)
-        lower_priority(self._proc.pid)  # from its start: its imports take ~1 s of CPU too
         atexit.register(self.close)
         self._send(params)
 
@@ -89,24 +86,6 @@ class RowProcess:
             self._proc.wait()
         for pipe in (self._proc.stdin, self._proc.stdout):
             pipe.close()
-
-
-def lower_priority(pid, nice=ROW_NICE):
-    """Run process ``pid`` (and its session's autogroup) at ``nice`` or lower; best effort.
-
-    Linux schedules each session as a group of its own (autogroup) when
-    /proc/sys/kernel/sched_autogroup_enabled is 1: a process's nice then weighs only
-    inside its group, the group's nice against the node's.
-    """
-    try:
-        os.setpriority(os.PRIO_PROCESS, pid, max(nice, os.getpriority(os.PRIO_PROCESS, pid)))
-    except OSError:
-        pass
-    try:
-        with open(f'/proc/{pid}/autogroup', 'w') as autogroup:
-            autogroup.write(str(nice))
-    except OSError:
-        pass  # no autogroup (another kernel or OS): the process's nice is what counts
 
 
 def serve_rows(stdin, stdout):
