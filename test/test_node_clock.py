@@ -42,7 +42,10 @@ def _closed_loop_run(log_dir, tag, *node_args):
         done = probe.spin_until(
             lambda: joints and stamp_seconds(joints[-1][1].header) >= SIM_SECONDS, 60.0)
         assert done, tca.log() + pid.log()
-        qos = {topic: [(i.node_name, i.qos_profile.reliability)  # the loop is connected
+        # the probe's view of the graph may lag the loop's own discovery: wait for it
+        probe.spin_until(lambda: 'tca_pid' in [
+            i.node_name for i in probe.get_subscriptions_info_by_topic('/joint_states')], 10.0)
+        qos = {topic: [(i.node_name, i.qos_profile.reliability)
                        for i in probe.get_subscriptions_info_by_topic(topic)]
                for topic in ('/power_cmd', '/joint_states')}
         assert 'lockstep: no command' not in tca.log()

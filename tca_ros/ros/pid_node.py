@@ -1,7 +1,7 @@
 """ROS 2 node ``tca_pid``: an example PID controller of the TCA's displacement.
 
 Reads ``displacement_setpoint`` (std_msgs/Float64, m) and the feedback ``joint_states``
-(position = displacement, m, stamped) of ``tca_node``; publishes ``power_cmd``
+(position = displacement, m, stamped; best effort) of ``tca_node``; publishes ``power_cmd``
 (std_msgs/Float64, W) once per feedback message. The sample time is taken from the
 feedback stamps, so the loop is the same under wall time, ``use_sim_time`` and the
 simulator's lockstep ``/clock``, and two runs with the same inputs give the same output.
