@@ -5,9 +5,12 @@
    real-time factor with publish_clock (real_time_factor 0) of the node alone (its own
    shutdown line), with a client reading /clock, in lockstep with tca_pid at 100 Hz
    reading joint_states only (its time comes from the stamps) and with tca_pid on
-   use_sim_time (it reads /clock too); beside them the rclpy round trip between two
-   processes spinning the same executor (a Float64 ping-pong, one message in flight), the
-   limit of a lockstep loop, which needs one round trip per control tick.
+   use_sim_time (it reads /clock too), with the CPU time per tick of the node and of
+   tca_pid (all threads; less sensitive to the machine's load than the factor), also with
+   the node's power_cmd read best effort (a qos_overrides parameter); beside them the
+   rclpy round trip between two processes spinning the same executor (a Float64
+   ping-pong, one message in flight), the limit of a lockstep loop, which needs one
+   round trip per control tick.
 3. Command-to-feedback latency: power_cmd published -> the applied ``power`` received.
 4. Longest gap between outputs under a 2 W step, per shipped config, with an empty table
    cache (the conical rod table's rows are then built while the node runs): at the
@@ -46,6 +49,8 @@ CONFIGS = ('free_stroke', 'self_coiled', 'conical')  # the shipped config/*.yaml
 STEP_POWER = 2.0  # W, the step of the output-gap figure
 COMMAND_PERIOD = 0.1  # s between its power commands (10 Hz, as a slow controller)
 PUBLISH_PERIOD = 0.01  # s, the shipped configs' publish_rate 100 Hz
+#: the node's power_cmd read best effort: no acknowledgements in the lockstep loop
+BEST_EFFORT_COMMANDS = ('-p', 'qos_overrides./power_cmd.subscription.reliability:=best_effort')
 
 
 def _cpu_seconds(pid):
@@ -138,13 +143,16 @@ def bench_cpu(log_dir, model, seconds):
 
 
 def bench_fastest(log_dir, model, seconds, lockstep=False, reader=False, pid_sim_time=False,
-                  env=None):
+                  env=None, node_args=(), cpu=None):
     """Return the real-time factor reached with publish_clock and factor 0.
 
     Without ``reader`` the node's shutdown line gives it (sim time over the wall time
     from its first tick); with ``reader`` a client reads /clock (as a use_sim_time node
     does) and the factor is measured from it. ``lockstep``: with tca_pid at the node's
     100 Hz, on use_sim_time if ``pid_sim_time`` (it then reads /clock too).
+    ``node_args``: more ``-p`` rules of the node. ``cpu`` (a list, lockstep without
+    ``reader``): the CPU time (s) per tick of the node and of tca_pid, all their threads,
+    over the last ``seconds - 1`` s (the ticks from the factor) is appended to it.
     """
     probe = Probe() if reader else None
     if reader:
@@ -153,7 +161,7 @@ def bench_fastest(log_dir, model, seconds, lockstep=False, reader=False, pid_sim
             depth=1, reliability=ReliabilityPolicy.BEST_EFFORT))
     tag = f'fast{int(lockstep)}{int(reader)}{int(pid_sim_time)}'
     node = _start(log_dir, model, '-p', 'publish_clock:=true', '-p', 'real_time_factor:=0.0',
-                  '-p', f'lockstep:={str(lockstep).lower()}', name=tag, env=env)
+                  '-p', f'lockstep:={str(lockstep).lower()}', *node_args, name=tag, env=env)
     pid = None
     if lockstep:
         pid = NodeProcess(module_command('tca_ros.ros.pid_node', [
@@ -161,10 +169,19 @@ def bench_fastest(log_dir, model, seconds, lockstep=False, reader=False, pid_sim
             pathlib.Path(log_dir) / f'pid{tag}.log', env=env)
     try:
         if not reader:
-            time.sleep(seconds)
+            time.sleep(1.0)  # tca_pid starts (its ticks counted in the factor only)
+            procs = [node.proc.pid] + ([pid.proc.pid] if pid is not None else [])
+            cpu0, t0 = [_cpu_seconds(p) for p in procs], time.monotonic()
+            time.sleep(seconds - 1.0)
+            cpu1, t1 = [_cpu_seconds(p) for p in procs], time.monotonic()
             node.stop()
             line = re.search(r'\(([0-9.]+)x real time\)', node.log())
-            return float(line.group(1)) if line else math.nan
+            factor = float(line.group(1)) if line else math.nan
+            if cpu is not None:
+                ticks = factor * (t1 - t0) / PUBLISH_PERIOD
+                cpu.extend((b - a) / ticks if ticks > 0 else math.nan
+                           for a, b in zip(cpu0, cpu1))
+            return factor
         probe.spin_until(lambda: clocks, 60.0)
         probe.spin_for(1.0)
         sim0, t0 = _sim_seconds(clocks[-1][1]), time.monotonic()
@@ -243,18 +260,27 @@ def lockstep_table(log_dir, model, seconds, executors):
     for executor in executors:
         env = dict(os.environ, TCA_EXECUTOR=executor)
         median, mean = bench_round_trip(log_dir, executor)
+        cpu, cpu_be = [], []
         rows[executor] = [
             bench_fastest(log_dir, model, seconds, env=env),
             bench_fastest(log_dir, model, seconds, reader=True, env=env),
-            bench_fastest(log_dir, model, seconds, lockstep=True, env=env),
+            bench_fastest(log_dir, model, seconds, lockstep=True, env=env, cpu=cpu),
+            bench_fastest(log_dir, model, seconds, lockstep=True, env=env, cpu=cpu_be,
+                          node_args=BEST_EFFORT_COMMANDS),
             bench_fastest(log_dir, model, seconds, lockstep=True, pid_sim_time=True, env=env),
             1e6 * median, 1e6 * mean, 0.01 / mean]
+        rows[executor][4:4] = [1e6 * c for c in cpu] + [1e6 * c for c in cpu_be]
     load1, load5, _ = os.getloadavg()
     print(f'lockstep speed, model {model}, {seconds:g} s per figure, {os.cpu_count()} cores, '
           f'load average {load1:.1f} / {load5:.1f} (1 / 5 min)')
     labels = ['node alone, publish_clock, factor 0 (x)',
               '  with a client reading /clock (x)',
               'lockstep, tca_pid reading joint_states (x), target 30',
+              '  power_cmd read best effort (qos_overrides) (x)',
+              '  CPU per tick: node (us)',
+              '  CPU per tick: tca_pid (us)',
+              '  CPU per tick, power_cmd best effort: node (us)',
+              '  CPU per tick, power_cmd best effort: tca_pid (us)',
               'lockstep, tca_pid on use_sim_time (+ /clock) (x)',
               'rclpy round trip, two processes, median (us)',
               '  mean (us)',

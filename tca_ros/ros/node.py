@@ -23,7 +23,6 @@ from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.qos import QoSProfile
 from rosgraph_msgs.msg import Clock as ClockMsg
-from std_msgs.msg import Float64
 from std_srvs.srv import Trigger
 
 from tca_ros.model.params_schema import ParameterError, SCHEMA, SPECS
@@ -32,7 +31,8 @@ from tca_ros.ros.node_cmdline import check_ros_arguments, init_quietly, log_fata
 from tca_ros.ros.node_core import NodeCore
 from tca_ros.ros.node_diagnostics import DiagnosticsPublisher
 from tca_ros.ros.node_episode import Log, WARN_PERIOD
-from tca_ros.ros.node_outputs import COMMAND_QOS, StateOutputs, time_msg, warm_up_shape
+from tca_ros.ros.node_outputs import (
+    command_subscription, StateOutputs, time_msg, warm_up_shape)
 from tca_ros.ros.node_params import (  # noqa: F401  (re-exported: the node's parameter API)
     build_simulator, check_unknown_overrides, declare_node_parameters,
     descriptor, GuardedParameterService, INTEGER_NAMES,
@@ -59,12 +59,11 @@ class TcaSimNode(Node):
         self._owns_time = cfg['publish_clock']
         self._wall = Clock(clock_type=ClockType.STEADY_TIME)
         self._outputs = StateOutputs(self)
-        self._power_sub = self.create_subscription(
-            Float64, 'power_cmd', lambda m: self.core.power_command(m.data), COMMAND_QOS)
-        self._voltage_sub = self.create_subscription(
-            Float64, 'voltage_cmd', lambda m: self.core.voltage_command(m.data), COMMAND_QOS)
-        self.create_subscription(Float64, 'load', lambda m: self.core.load_command(m.data),
-                                 COMMAND_QOS)
+        self._power_sub = command_subscription(
+            self, 'power_cmd', lambda m: self.core.power_command(m.data))
+        self._voltage_sub = command_subscription(
+            self, 'voltage_cmd', lambda m: self.core.voltage_command(m.data))
+        command_subscription(self, 'load', lambda m: self.core.load_command(m.data))
         self.create_service(Trigger, '~/reset', self._on_reset)
         self._rig = RigTopics(self, params.rig.mode, lambda: self.core.cfg,
                               lambda: self.core.command_time())

@@ -1,7 +1,7 @@
 """ROS 2 node ``tca_pid``: an example PID controller of the TCA's displacement.
 
 Reads ``displacement_setpoint`` (std_msgs/Float64, m) and the feedback ``joint_states``
-(position = displacement, m, stamped) of ``tca_node``; publishes ``power_cmd``
+(position = displacement, m, stamped; best effort) of ``tca_node``; publishes ``power_cmd``
 (std_msgs/Float64, W) once per feedback message. The sample time is taken from the
 feedback stamps, so the loop is the same under wall time, ``use_sim_time`` and the
 simulator's lockstep ``/clock``, and two runs with the same inputs give the same output.
@@ -20,7 +20,7 @@ from rclpy.clock import Clock, ClockType
 from rclpy.duration import Duration
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
-from rclpy.qos import QoSProfile
+from rclpy.qos import QoSProfile, ReliabilityPolicy
 from rclpy.signals import SignalHandlerOptions
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64
@@ -29,7 +29,10 @@ from tca_ros.ros.node_params import namespaced_name
 from tca_ros.ros.node_spin import install_stop_handlers, spin_resiliently
 
 COMMAND_QOS = QoSProfile(depth=10)
-FEEDBACK_QOS = QoSProfile(depth=10)
+# Best effort: the node's reliable writer then sends no heartbeats to be acknowledged,
+# which cost each process a wake-up of its DDS event thread per state (lockstep:
+# docs/node_figures.md); one state is in flight at a time, on the same host.
+FEEDBACK_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT)
 SETPOINT_QOS = QoSProfile(depth=10)
 
 MAX_SAMPLE_TIME = 1.0  # s; a longer gap between feedback stamps restarts the integrator
