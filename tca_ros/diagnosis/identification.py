@@ -11,6 +11,7 @@ import time as wallclock
 from tca_ros.calibration.candidates import ABSORBED, absorbed_candidates, parameters_at_bounds
 from tca_ros.calibration.conditions import held_strength
 from tca_ros.calibration.progress import Progress
+from tca_ros.diagnosis.findings import explain_findings, finding_effects
 from tca_ros.diagnosis.holdout import AUTO, choose_validation, DEFAULT_VALIDATION
 from tca_ros.diagnosis.joint import beats_nominal, family_rival_notes, joint_extension, \
     JOINT_NFEV, joint_notes
@@ -337,19 +338,33 @@ def _second_opinions(nominal, calibrate_with, effects, values, extendeds, rounds
     """Return (effects, values, extended sims, judgement) after the search's checks.
 
     ``judgement`` is Nominal.judged's (RMSE, stats, verdict, explanation). A record
-    the search leaves unexplained gets the joint stage (joint.py); an explanation
+    the search leaves unexplained gets the joint stage (joint.py), which also tries
+    the effects the calibration's findings name; a record the calibrated nominal
+    model leaves adequate while its calibration moved values beyond the description
+    gets those effects tested as the finding's cause (findings.py); an explanation
     with a parameter at the end of its range is not one; a single effect of a
     family gets its rivals said (joint.family_rival_notes).
     """
     judgement = nominal.judged(effects, values, extendeds)
     cal, joint = nominal.cal, None
+    named_by_findings = finding_effects(cal)
     if judgement[2] == 'unexplained' and cal is not None and rounds:
         # the search's nominal refit is narrow: calibrate its first round's best
         # candidates together with the nominal parameters (joint.py)
         joint, rivals = joint_extension(calibrate_with, nominal.problems, nominal.sims, cal,
-                                        nominal.candidates, rounds, nominal.rmse)
+                                        nominal.candidates, rounds, nominal.rmse,
+                                        extra=named_by_findings)
         if joint is not None:
             notes.extend(joint_notes(joint, rivals, effects))
+            effects, values, extendeds = list(joint.effects), joint.values, joint.sims
+            judgement = nominal.judged(effects, values, extendeds)
+    elif judgement[2] == 'adequate' and named_by_findings:
+        # nothing structured is left because the calibration moved stated values
+        taken, said = explain_findings(calibrate_with, nominal.problems, nominal.sims, cal,
+                                       nominal.candidates)
+        notes.extend(said)
+        if taken is not None:
+            joint = taken.fit
             effects, values, extendeds = list(joint.effects), joint.values, joint.sims
             judgement = nominal.judged(effects, values, extendeds)
     rmse, stats, verdict, explanation = judgement

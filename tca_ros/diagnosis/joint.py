@@ -27,13 +27,14 @@ from tca_ros.calibration.candidates import parameters_at_bounds
 from tca_ros.diagnosis.search import LAG_EFFECTS, MIN_GAIN_PERCENT
 from tca_ros.diagnosis.verdict import channel_stats, heldout_gain_over, needs_explaining, \
     pooled_heldout_rmse
-from tca_ros.model.params import to_flat_dict
+from tca_ros.model.params import SPECS, to_flat_dict
 
 JOINT_TOP = 3  # candidates of the search's first round calibrated jointly, best first
 PAIR_LEADS = 2  # single joint fits that help without explaining, each tried with partners
 PAIR_PARTNERS = 2  # partners of each, from the search round that added it (or the first)
 MAX_PAIRS = 4  # pairs calibrated jointly at most
 JOINT_NFEV = 10  # least-squares iterations of each pass of a joint calibration
+OFF_SHARE = 0.005  # a magnitude within this share of its range of neutral: the effect is off
 #: effects one record may not tell apart, tried together: the lags (each delays the
 #: response), the play operators (on the temperature or on the elongation: the same band
 #: of stroke under a constant load) and the heat-loss shapes (each bends the steady rise)
@@ -53,6 +54,7 @@ class JointFit:
     explained: bool  # the verdict's test finds no structure left
     pinned: list  # (name, value, bound) of its parameters at the end of their range
     effects: tuple = ()  # the catalogue names, in the order found (default: (name,))
+    calibration: object = None  # the joint Calibration (its priors and FitReport)
 
     def __post_init__(self):  # noqa: D105 -- a single effect names itself
         self.effects = tuple(self.effects) or (self.name,)
@@ -101,7 +103,7 @@ def calibratable(candidates):
             if all(s.name.startswith('effects.') for s in c.spaces)}
 
 
-def joint_order(rounds, candidates, top=JOINT_TOP):
+def joint_order(rounds, candidates, top=JOINT_TOP, extra=()):
     """Return the candidates to calibrate jointly: the first round's best ``top``.
 
     By the first round's held-out score (each candidate refitted with the
@@ -112,30 +114,57 @@ def joint_order(rounds, candidates, top=JOINT_TOP):
     that took it up are free again (seed 9039: the second lag ranked fifth behind
     dead time and sensor lag), and hysteresis and friction, or an ambient offset
     and nonlinear convection, each explained a record that held the other when it
-    was not tried (own generator 1006, bench_diagnosis_real 9032).
+    was not tried (own generator 1006, bench_diagnosis_real 9032). ``extra``: effect
+    names tried too, after them (those a calibration finding stands for, findings.py:
+    a value the calibration moved beyond the description took up their signature, and
+    the first round, screened beside it, ranks them low).
     """
     first = next((r for r in rounds if r is not None), None)
     if first is None:
         return []
     fittable = calibratable(candidates)
-    ranked = [fittable[s.name] for s in first.scores if s.name in fittable]
+    # a refined fit that switched its effect off has nothing to hand the joint stage:
+    # it goes after the others (a calibration that absorbed an effect ranks it low, and
+    # the effects the base already fits as well rank first with their effect off)
+    scores = sorted((s for s in first.scores if s.name in fittable),
+                    key=lambda s: s.refined and switched_off(fittable[s.name], s.fit.params))
+    ranked = [fittable[s.name] for s in scores]
     order = ranked[:top]
     for family in FAMILIES:
         if any(c.name in family for c in order):
             order += [c for c in ranked[top:] if c.name in family and c not in order]
+    order += [fittable[n] for n in extra
+              if n in fittable and fittable[n].starts and fittable[n] not in order]
     return order
 
 
-def joint_calibrations(calibrate_with, problems, nominals, cal, candidates, groups):
+def switched_off(candidate, params):
+    """Return True when fitted ``params`` put ``candidate``'s magnitude at its neutral value.
+
+    The magnitude is the effect's first parameter (a creep compliance, a lag, an
+    offset, a loss fraction ...), neutral at its schema default; within
+    OFF_SHARE of its search range of it, the fit has switched the effect off.
+    """
+    space = candidate.spaces[0]
+    value = params.get(space.name)
+    if value is None:
+        return False
+    return abs(value - SPECS[space.name].default) <= OFF_SHARE * (space.high - space.low)
+
+
+def joint_calibrations(calibrate_with, problems, nominals, cal, candidates, groups,
+                       gate=True):
     """Return the JointFits of the candidate ``groups`` (each a tuple: one effect or a pair).
 
     ``calibrate_with(fit, start_values, like)`` runs the training-part
     calibration (nominal.calibrate_training_part) and returns (Calibration or
     None, [params per record], note); ``cal`` is the calibrated nominal's
     Calibration, whose defect corrections each joint calibration reuses (one
-    fit each), ``nominals`` its simulations. A joint calibration that does not
-    fit the training part MIN_GAIN_PERCENT better than the nominal one cannot
-    pass on the held-out part and is not simulated at the record rate.
+    fit each), ``nominals`` its simulations. With ``gate``, a joint calibration
+    that does not fit the training part MIN_GAIN_PERCENT better than the nominal
+    one cannot pass on the held-out part and is not simulated at the record rate
+    (a finding's effect may fit it only as well, with the nominal values back
+    where the description has them: findings.py).
     """
     fitted = list(cal.report.estimates)
     enough = (1.0 - MIN_GAIN_PERCENT / 100.0) ** 2 * training_misfit(cal.report, cal.report)
@@ -148,7 +177,7 @@ def joint_calibrations(calibrate_with, problems, nominals, cal, candidates, grou
             joint, _, _ = calibrate_with(fitted + own, {**cal.report.values, **starts}, cal)
         except (ValueError, ArithmeticError):
             continue
-        if joint is None or not training_misfit(joint.report, cal.report) <= enough:
+        if joint is None or (gate and not training_misfit(joint.report, cal.report) <= enough):
             continue
         values = changed_values(joint.params, cal.params)
         try:
@@ -161,7 +190,8 @@ def joint_calibrations(calibrate_with, problems, nominals, cal, candidates, grou
             name=' + '.join(names), values=values, n_params=len(own), sims=sims,
             criterion=heldout_gain_over(problems, nominals, sims, len(own)),
             explained=not needs_explaining(stats),
-            pinned=parameters_at_bounds(list(names), values, candidates), effects=names))
+            pinned=parameters_at_bounds(list(names), values, candidates), effects=names,
+            calibration=joint))
     return out
 
 
@@ -224,16 +254,17 @@ def best_joint(fits, problems, nominals, nominal_rmse):
     return (ok[0], ok[1:]) if ok else (None, [])
 
 
-def joint_extension(calibrate_with, problems, nominals, cal, candidates, rounds, nominal_rmse):
+def joint_extension(calibrate_with, problems, nominals, cal, candidates, rounds, nominal_rmse,
+                    extra=()):
     """Return (the JointFit taken or None, its rivals): singles first, then pairs.
 
-    The search's first-round candidates (joint_order) are calibrated jointly one
-    at a time; when none is taken, the pairs of pair_order; best_joint decides
-    each time. Arguments as joint_calibrations and best_joint; ``rounds`` are the
-    search's SearchRounds.
+    The search's first-round candidates (joint_order, with the ``extra`` effect
+    names) are calibrated jointly one at a time; when none is taken, the pairs of
+    pair_order; best_joint decides each time. Arguments as joint_calibrations and
+    best_joint; ``rounds`` are the search's SearchRounds.
     """
     fits = joint_calibrations(calibrate_with, problems, nominals, cal, candidates,
-                              [(c,) for c in joint_order(rounds, candidates)])
+                              [(c,) for c in joint_order(rounds, candidates, extra=extra)])
     joint, rivals = best_joint(fits, problems, nominals, nominal_rmse)
     if joint is None:  # one effect helps but leaves structure: it and a partner
         fits = joint_calibrations(calibrate_with, problems, nominals, cal, candidates,

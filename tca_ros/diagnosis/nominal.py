@@ -10,6 +10,7 @@ import os
 import numpy as np
 
 from tca_ros.calibration.candidates import build_candidates, recalibration_spaces
+from tca_ros.calibration.physical_priors import prior_spreads
 from tca_ros.diagnosis.fitting import FitProblem
 from tca_ros.diagnosis.holdout import DEFAULT_VALIDATION
 from tca_ros.records.data import DataError, read_record
@@ -44,7 +45,7 @@ def nominal_with_fallback(records, params_of, cal, from_file, base, options, not
     model = options['model']
     try:
         return nominal_problems(records, params_of, cal is not None or from_file, options,
-                                paths) + (cal, params_of)
+                                paths, described=base) + (cal, params_of)
     except DataError:
         raise
     except (ValueError, ArithmeticError) as exc:  # StabilityError is a ValueError
@@ -61,11 +62,12 @@ def nominal_with_fallback(records, params_of, cal, from_file, base, options, not
                              f'record with model={model} ({again})') from None
 
 
-def nominal_problems(records, params_of, recalibrated, options, paths):
+def nominal_problems(records, params_of, recalibrated, options, paths, described=None):
     """Return (problems, problem or set, start values, nominal simulations).
 
     ``recalibrated``: the nominal parameters stay free in the search
-    (candidates.recalibration_spaces). Raises ValueError (a DataError for
+    (candidates.recalibration_spaces), within the stated uncertainty of the
+    description ``described`` (TcaParams) where given. Raises ValueError (a DataError for
     records whose channels differ) or ArithmeticError when the nominal model
     cannot simulate a record.
     """
@@ -77,7 +79,8 @@ def nominal_problems(records, params_of, recalibrated, options, paths):
         raise DataError(f'{paths[1]}: row 1, column {"temperature"!r}: {exc}') from None
     start_values = {}
     if recalibrated:  # the nominal parameters stay free in the search
-        spaces, start_values = recalibration_spaces(params_of[0])
+        spreads = prior_spreads(described) if described is not None else None
+        spaces, start_values = recalibration_spaces(params_of[0], described, spreads)
         problem.recalibration = spaces
         for p in problems:
             p.recalibration = spaces

@@ -145,6 +145,17 @@ def heldout_gain_over(problems, base_sims, sims, added_params):
     checks that its extended model predicts the held-out parts better than the
     calibrated nominal one it started from.
     """
+    deviance, n = heldout_deviance(problems, base_sims, sims)
+    if n < added_params + 2:
+        return -math.inf
+    return deviance - added_params * math.log(n)
+
+
+def heldout_deviance(problems, base_sims, sims):
+    """Return (D, n): the held-out deviance gain of ``sims`` over ``base_sims`` and its count.
+
+    noise.heldout_deviance_gain on the record-rate simulations (one per problem).
+    """
     pairs = []
     for c in problems[0].channels:
         channel = []
@@ -155,10 +166,7 @@ def heldout_gain_over(problems, base_sims, sims, added_params):
                                 measured[i0:i1] - getattr(e, c)[i0:i1], p.sample_rate,
                                 float(p.record.time[i0] - p.record.time[0]), id(p)))
         pairs.append(channel)
-    deviance, n = heldout_deviance_gain(pairs)
-    if n < added_params + 2:
-        return -math.inf
-    return deviance - added_params * math.log(n)
+    return heldout_deviance_gain(pairs)
 
 
 def noise_model_gain(problem, base_residuals, values, added_params):
