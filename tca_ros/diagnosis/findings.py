@@ -13,7 +13,8 @@ calibrated jointly with the nominal parameters (joint.joint_calibrations: the
 description's priors on the nominal values, a nearly flat one on the effect's),
 and it **explains the finding** when
 
-1. the values whose findings name it return within SHIFT_Z prior spreads;
+1. the values whose findings name it return within SHIFT_Z prior spreads (and
+   within their physical limits: a value past them counts as a finding here);
 2. the calibration's objective, data (on the nominal calibration's channel scales
    and effective sample count) plus priors, falls by more than k ln n_eff
    (k the effect's parameters, n_eff the calibration's effective samples: BIC);
@@ -24,7 +25,9 @@ and it **explains the finding** when
    its range.
 
 The effect with the largest fall of the objective is named; the others that pass
-are said as rivals (docs/diagnosis_method.md, "Findings").
+are said as rivals. A finding none of its effects explains leaves the record
+unexplained: the nominal model fits it only with values the description rules out
+(docs/diagnosis_method.md, "Findings").
 """
 from dataclasses import dataclass
 import math
@@ -53,20 +56,26 @@ class FindingTest:
 def finding_effects(cal):
     """Return the catalogue effects the findings of Calibration ``cal`` name, largest |z| first.
 
-    Empty without a calibration or without findings.
+    The findings and the values past their physical limits (an implausible value
+    stands in for physics the model lacks: a stiffness of 0.3 x the preset's for a
+    modulus that softens). Empty without a calibration or without either.
     """
     if cal is None:
         return []
     out = []
-    for _, _, effects in sorted(cal.findings(), key=lambda f: -abs(f[1])):
+    for _, _, effects in sorted(cal.findings(implausible=True), key=lambda f: -abs(f[1])):
         out += [e for e in effects if e not in out]
     return out
 
 
-def _z(calibration, name):
-    """Return the z of calibrated ``name`` in a Calibration: (fit value - prior) / spread."""
-    par = calibration.priors[name]
-    return (par.to_fit(calibration.report.values[name]) - par.to_fit(par.prior)) / par.spread
+def _returned(joint, names):
+    """Return True when calibrated ``names`` are within SHIFT_Z spreads and plausible.
+
+    ``joint``: the Calibration of an effect and the nominal parameters together.
+    """
+    rows = {r.name: r for r in joint.plausibility()}
+    return all(abs(rows[n].z) <= SHIFT_Z and not rows[n].implausible
+               for n in names if n in rows)
 
 
 def weigh_finding_effect(fit, cal, problems, nominals):
@@ -76,8 +85,9 @@ def weigh_finding_effect(fit, cal, problems, nominals):
     nominal model's record-rate simulations.
     """
     joint = fit.calibration
-    names = [n for n, _, effects in cal.findings() if set(fit.effects) & set(effects)]
-    returned = all(abs(_z(joint, n)) <= SHIFT_Z for n in names if n in joint.priors)
+    names = [n for n, _, effects in cal.findings(implausible=True)
+             if set(fit.effects) & set(effects)]
+    returned = _returned(joint, names)
     ref = cal.report
     penalty = fit.n_params * math.log(max(ref.n_effective, math.e))
     fall = (ref.data_cost() + ref.prior_cost
@@ -107,7 +117,8 @@ def explain_findings(calibrate_with, problems, nominals, cal, candidates):
     tests = sorted((weigh_finding_effect(f, cal, problems, nominals) for f in fits),
                    key=lambda t: -t.fall)
     passing = [t for t in tests if t.passes]
-    shifted = ', '.join(f'{n} ({z:+.1f} spreads)' for n, z, _ in cal.findings())
+    shifted = ', '.join(f'{n} ({z:+.1f} spreads)'
+                        for n, z, _ in cal.findings(implausible=True))
     if not passing:
         tried = ', '.join(f'{t.name} (objective {t.fall:+.1f}, held-out deviance '
                           f'{t.deviance:+.1f}{"" if t.returned else ", values not returned"})'
@@ -125,3 +136,13 @@ def explain_findings(calibrate_with, problems, nominals, cal, candidates):
             f'{t.name} (objective {t.fall:.1f})' for t in passing[1:])
             + '; these records tell them apart only by that fall')
     return best, notes
+
+
+def unexplained_findings(cal):
+    """Return the verdict sentence of findings no catalogue effect explained (``cal``'s)."""
+    shifted = ', '.join(f'{n} {z:+.1f} prior spreads' for n, z, _ in cal.findings())
+    return ('the calibrated nominal model leaves no structure, but only with values moved '
+            f'beyond the uncertainty the description states ({shifted}; a finding is '
+            f'beyond {SHIFT_Z:g}), and none of the catalogue effects they can stand for '
+            'explains the move: the muscle differs from its description there, or an '
+            'effect outside the catalogue acts')

@@ -11,7 +11,8 @@ import time as wallclock
 from tca_ros.calibration.candidates import ABSORBED, absorbed_candidates, parameters_at_bounds
 from tca_ros.calibration.conditions import held_strength
 from tca_ros.calibration.progress import Progress
-from tca_ros.diagnosis.findings import explain_findings, finding_effects
+from tca_ros.diagnosis.findings import explain_findings, finding_effects, \
+    unexplained_findings
 from tca_ros.diagnosis.holdout import AUTO, choose_validation, DEFAULT_VALIDATION
 from tca_ros.diagnosis.joint import beats_nominal, family_rival_notes, joint_extension, \
     JOINT_NFEV, joint_notes
@@ -367,6 +368,8 @@ def _second_opinions(nominal, calibrate_with, effects, values, extendeds, rounds
             joint = taken.fit
             effects, values, extendeds = list(joint.effects), joint.values, joint.sims
             judgement = nominal.judged(effects, values, extendeds)
+        elif cal.findings():  # adequate only by leaving the description: not adequate
+            judgement = judgement[:2] + ('unexplained', unexplained_findings(cal))
     rmse, stats, verdict, explanation = judgement
     pinned = parameters_at_bounds(effects, values, nominal.candidates)
     if verdict == 'explained' and pinned:

@@ -81,4 +81,3 @@ def describe(truth, start, tightness, rng, model='cst'):
     else:
         raise ValueError(f'tightness {tightness!r}: allowed {", ".join(TIGHTNESS)}')
     return params.with_values(model=model, **{f'uncertainty.{k}': v for k, v in stated.items()})
-
