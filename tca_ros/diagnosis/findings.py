@@ -120,7 +120,7 @@ def explain_findings(calibrate_with, problems, nominals, cal, candidates):
     shifted = ', '.join(f'{n} ({z:+.1f} spreads)'
                         for n, z, _ in cal.findings(implausible=True))
     if not passing:
-        tried = ', '.join(f'{t.name} (objective {t.fall:+.1f}, held-out deviance '
+        tried = ', '.join(f'{t.name} (objective fall {t.fall:+.1f}, held-out deviance '
                           f'{t.deviance:+.1f}{"" if t.returned else ", values not returned"})'
                           for t in tests) or 'none could be calibrated'
         return None, [f'findings {shifted}: the effects they can stand for, calibrated '
@@ -133,7 +133,7 @@ def explain_findings(calibrate_with, problems, nominals, cal, candidates):
              f'{best.deviance:+.1f}): named (docs/diagnosis_method.md, "Findings")']
     if len(passing) > 1:
         notes.append('also explaining the findings: ' + ', '.join(
-            f'{t.name} (objective {t.fall:.1f})' for t in passing[1:])
+            f'{t.name} (objective fall {t.fall:.1f})' for t in passing[1:])
             + '; these records tell them apart only by that fall')
     return best, notes
 

@@ -18,7 +18,6 @@ Catalogue effects keep their dotted ``effects.*`` names. The module also says
 which catalogue effects a calibrated parameter that left its description can
 stand for (issue 25: what calibration absorbs is a finding).
 """
-from tca_ros.calibration.calibration_report import prior_kinds
 from tca_ros.model.thermal import fiber_mass, heat_capacity, thermal_conductance
 
 #: params-file entry -> (calibration name, unit); the value converts by :func:`nominal_value`
@@ -76,7 +75,7 @@ def calibrated_values(params, reference):
 
 
 def plausibility_lines(cal):
-    """Return the summary lines of a Calibration's values: value, start, z, kinds, findings.
+    """Return the summary lines of a Calibration's values: value, start, z, flags, findings.
 
     Names and values as `tca_sim calibrate` prints them; a value beyond
     physical_priors.SHIFT_Z prior spreads is a finding, said with the catalogue
@@ -90,7 +89,6 @@ def plausibility_lines(cal):
         lines.append(f'  {row.name:<28s}{row.value:>11.4g} {row.unit:<6s}(start '
                      f'{row.prior:.4g}, z {row.z:+.1f}{ratio}){flag}')
     lines += _derived_lines(cal)
-    lines += prior_kinds(cal)  # which values the description gave as measured or guessed
     for name, z, effects in cal.findings():
         row = next(r for r in rows if r.name == name)
         why = ' or '.join(effects) if effects else 'a cause outside the catalogue'
