@@ -176,24 +176,19 @@ def test_the_joint_calibration_takes_the_first_rounds_best_and_the_lag_siblings(
     candidates = build_candidates(params, 'cst', 0.2, 5e-3)
     ranking = ['coil_contact', 'dead_time', 'creep', 'hysteresis', 'radiation',
                'second_thermal_lag', 'sensor_lag', 'friction', 'creep_x']
-    scores = [SimpleNamespace(name=n, refined=False) for n in ranking]
+    scores = [SimpleNamespace(name=n) for n in ranking]
     order = [c.name for c in joint_order([None, SearchRound([], 1.0, {}, scores)],
                                          candidates)]
     assert order[:JOINT_TOP] == ['dead_time', 'creep', 'hysteresis']
     assert order[JOINT_TOP:] == ['second_thermal_lag', 'sensor_lag', 'friction']
-    without_lag = [SimpleNamespace(name=n, refined=False)
-                   for n in ['creep', 'hysteresis', 'radiation', 'dead_time']]
+    without_lag = [SimpleNamespace(name=n) for n in ['creep', 'hysteresis', 'radiation',
+                                                     'dead_time']]
     assert [c.name for c in joint_order([SearchRound([], 1.0, {}, without_lag)],
                                         candidates)] == ['creep', 'hysteresis', 'radiation']
     assert joint_order([], candidates) == []
-    # a refined fit that switched its effect off (dead time at 1e-12 s) goes after the
-    # rest and falls out of the best three; the effects findings name come last, once
-    off = SimpleNamespace(name='dead_time', refined=True,
-                          fit=SimpleNamespace(params={'effects.dead_time': 1e-12}))
-    on = SimpleNamespace(name='creep', refined=True, fit=SimpleNamespace(
-        params={'effects.creep_compliance': 0.01, 'effects.creep_time_constant': 30.0}))
-    ranked = [off, on] + [SimpleNamespace(name=n, refined=False)
-                          for n in ['hysteresis', 'ambient_offset']]
+    # the effects a calibration's findings name come after them, once
+    ranked = [SimpleNamespace(name=n) for n in ['creep', 'hysteresis', 'ambient_offset',
+                                                'dead_time']]
     order = [c.name for c in joint_order([SearchRound([], 1.0, {}, ranked)], candidates,
                                          extra=('power_loss', 'creep'))]
     assert order == ['creep', 'hysteresis', 'ambient_offset', 'power_loss']

@@ -229,7 +229,9 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
     effects, values, extendeds, judgement = _second_opinions(
         nominal, calibrate_with, effects, values, extendeds, rounds, notes)
     extended_rmse, extended_stats, verdict, explanation = judgement
-    if verdict in ('adequate', 'explained') and holds_one_load(records):
+    if holds_one_load(records) and (verdict != 'unexplained'
+                                    or not needs_explaining(extended_stats)):
+        # no structure left (the verdict may still be a finding's): say what one load hides
         notes.append(ONE_LOAD_NOTE)
     helpful = []
     if verdict == 'unexplained' and effects:

@@ -27,14 +27,13 @@ from tca_ros.calibration.candidates import parameters_at_bounds
 from tca_ros.diagnosis.search import LAG_EFFECTS, MIN_GAIN_PERCENT
 from tca_ros.diagnosis.verdict import channel_stats, heldout_gain_over, needs_explaining, \
     pooled_heldout_rmse
-from tca_ros.model.params import SPECS, to_flat_dict
+from tca_ros.model.params import to_flat_dict
 
 JOINT_TOP = 3  # candidates of the search's first round calibrated jointly, best first
 PAIR_LEADS = 2  # single joint fits that help without explaining, each tried with partners
 PAIR_PARTNERS = 2  # partners of each, from the search round that added it (or the first)
 MAX_PAIRS = 4  # pairs calibrated jointly at most
 JOINT_NFEV = 10  # least-squares iterations of each pass of a joint calibration
-OFF_SHARE = 0.005  # a magnitude within this share of its range of neutral: the effect is off
 #: effects one record may not tell apart, tried together: the lags (each delays the
 #: response), the play operators (on the temperature or on the elongation: the same band
 #: of stroke under a constant load) and the heat-loss shapes (each bends the steady rise)
@@ -123,12 +122,7 @@ def joint_order(rounds, candidates, top=JOINT_TOP, extra=()):
     if first is None:
         return []
     fittable = calibratable(candidates)
-    # a refined fit that switched its effect off has nothing to hand the joint stage:
-    # it goes after the others (a calibration that absorbed an effect ranks it low, and
-    # the effects the base already fits as well rank first with their effect off)
-    scores = sorted((s for s in first.scores if s.name in fittable),
-                    key=lambda s: s.refined and switched_off(fittable[s.name], s.fit.params))
-    ranked = [fittable[s.name] for s in scores]
+    ranked = [fittable[s.name] for s in first.scores if s.name in fittable]
     order = ranked[:top]
     for family in FAMILIES:
         if any(c.name in family for c in order):
@@ -136,20 +130,6 @@ def joint_order(rounds, candidates, top=JOINT_TOP, extra=()):
     order += [fittable[n] for n in extra
               if n in fittable and fittable[n].starts and fittable[n] not in order]
     return order
-
-
-def switched_off(candidate, params):
-    """Return True when fitted ``params`` put ``candidate``'s magnitude at its neutral value.
-
-    The magnitude is the effect's first parameter (a creep compliance, a lag, an
-    offset, a loss fraction ...), neutral at its schema default; within
-    OFF_SHARE of its search range of it, the fit has switched the effect off.
-    """
-    space = candidate.spaces[0]
-    value = params.get(space.name)
-    if value is None:
-        return False
-    return abs(value - SPECS[space.name].default) <= OFF_SHARE * (space.high - space.low)
 
 
 def joint_calibrations(calibrate_with, problems, nominals, cal, candidates, groups,
