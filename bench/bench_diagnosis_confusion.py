@@ -78,11 +78,15 @@ def run_case(args):
     seed, hidden, directory, masses, tightnesses = args
     case_dir = os.path.join(directory, f'{seed}_{len(masses)}')
     os.makedirs(case_dir, exist_ok=True)
-    if masses:
-        paths, start_path = realistic_loads(seed, hidden, case_dir, masses)
-    else:
-        path, start_path = realistic_case(seed, hidden, case_dir)
-        paths = [path]
+    try:
+        if masses:
+            paths, start_path = realistic_loads(seed, hidden, case_dir, masses)
+        else:
+            path, start_path = realistic_case(seed, hidden, case_dir)
+            paths = [path]
+    except (ValueError, ArithmeticError) as exc:  # the plant itself cannot be simulated
+        return [{'seed': seed, 'hidden': hidden, 'records': max(len(masses), 1),
+                 'skipped': str(exc).splitlines()[0]}]
     truth, start = load_params(truth_path(case_dir, seed)), load_params(start_path)
     structured = truth_structured(paths[0], truth_path(case_dir, seed))
     rows = []
@@ -219,8 +223,13 @@ def main(argv=None):
         work = [(seed, hidden, directory, m, tights) for m in layouts for seed, hidden in todo]
         with multiprocessing.Pool(args.jobs) as pool:
             rows = [r for rs in pool.imap(run_case, work) for r in rs]
+    skipped = [r for r in rows if 'skipped' in r]
+    rows = [r for r in rows if 'skipped' not in r]
     print(f'{len(rows)} diagnoses of {len(todo)} muscles in {time.perf_counter() - start:.0f} s '
           f'wall ({args.jobs} jobs)')
+    for r in skipped:
+        print(f'  skipped {r["seed"]} ({"+".join(r["hidden"]) or "none"}, {r["records"]} '
+              f'records): the plant cannot be simulated ({r["skipped"]})')
     print_tables(rows)
     if args.save:
         with open(args.save, 'w') as f:
