@@ -21,7 +21,7 @@ import numpy as np  # noqa: E402
 
 from tca_ros.model.dynamics import TcaSimulator  # noqa: E402
 from tca_ros.model.kinetostatic_models import make_kinetostatic_model  # noqa: E402
-from tca_ros.model.params import load_params  # noqa: E402
+from tca_ros.params.files import load_params  # noqa: E402
 from tca_ros.toolkit.batch import BatchSimulator  # noqa: E402
 
 POWER = 1.0  # W, held: the muscles heat towards 100 degC

@@ -38,7 +38,7 @@ from bench_diagnosis_real import EFFECTS, group_of, truth_structured
 import numpy as np
 
 from tca_ros.diagnosis import diagnose
-from tca_ros.model.params import dump_params, load_params
+from tca_ros.params.files import dump_params, load_params
 from tca_ros.synthetic.descriptions import describe, TIGHTNESS
 from tca_ros.synthetic.realistic import conditions, OUTSIDE, realistic_case, \
     realistic_loads, truth_path

@@ -48,7 +48,7 @@ import numpy as np
 
 from tca_ros.diagnosis import diagnose
 from tca_ros.model.effects import CATALOGUE
-from tca_ros.model.params import dump_params
+from tca_ros.params.files import dump_params
 from tca_ros.synthetic.realistic import conditions, OUTSIDE, RATES, realistic_case, \
     realistic_loads, truth_path
 
@@ -129,7 +129,7 @@ def truth_structured(record_path, truth_file):
     from tca_ros.diagnosis.fitting import FitProblem, TRAIN_FRACTION
     from tca_ros.diagnosis.holdout import choose_validation
     from tca_ros.diagnosis.verdict import channel_stats
-    from tca_ros.model.params import load_params
+    from tca_ros.params.files import load_params
     from tca_ros.records.data import read_record
     record, truth = read_record(record_path), load_params(truth_file)
     # judged on the held-out part the diagnosis uses (its default layout)
@@ -343,12 +343,13 @@ def _diagnose_real(args, keep=False):
     """
     from bench_real import SALP_MUSCLE
     from tca_ros.model.muscle import describe_muscle
+    from tca_ros.params.thread_presets import load_thread_presets
     paths, length, work = args[:3]
     mandrel = args[3] if len(args) > 3 else SALP_MANDREL
     start_path = os.path.join(work, f'salp_{mandrel * 1e5:.0f}_{length * 1e4:.0f}.yaml')
     if not os.path.exists(start_path):
         spec = dataclasses.replace(SALP_MUSCLE, loaded_length=length, mandrel_diameter=mandrel)
-        dump_params(describe_muscle(spec).params, start_path)
+        dump_params(describe_muscle(spec, load_thread_presets()).params, start_path)
     t0 = time.process_time()
     try:
         r = diagnose(paths if len(paths) > 1 else paths[0], start_path, progress=False)

@@ -15,7 +15,7 @@ import time
 
 import numpy as np
 
-from tca_ros.model.params import load_params
+from tca_ros.params.files import load_params
 from tca_ros.toolkit import distributed
 
 TEMPS = np.arange(25.0, 160.1, 1.0)  # degC

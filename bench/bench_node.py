@@ -1,15 +1,21 @@
 """Benchmark of tca_node (printed, not asserted).
 
 1. CPU use of the node at 1 kHz physics / 100 Hz publishing, wall clock (% of one core).
-2. Fastest real-time factor with publish_clock (real_time_factor 0): the node alone (its
-   own shutdown line), with a client reading /clock, and in lockstep with tca_pid.
+2. Lockstep speed, side by side per executor (TCA_EXECUTOR: events, single): the fastest
+   real-time factor with publish_clock (real_time_factor 0) of the node alone (its own
+   shutdown line), with a client reading /clock, in lockstep with tca_pid at 100 Hz
+   reading joint_states only (its time comes from the stamps) and with tca_pid on
+   use_sim_time (it reads /clock too); beside them the rclpy round trip between two
+   processes spinning the same executor (a Float64 ping-pong, one message in flight), the
+   limit of a lockstep loop, which needs one round trip per control tick.
 3. Command-to-feedback latency: power_cmd published -> the applied ``power`` received.
 4. Longest gap between outputs under a 2 W step, per shipped config, with an empty table
-   cache (the conical rod table's rows are then built while the node runs).
-5. The rclpy loopback round trip on this machine (a Float64 to an echo process and back):
-   the limit of a lockstep loop, which needs one round trip per control tick.
+   cache (the conical rod table's rows are then built while the node runs): at the
+   probe (receipt times) and at the node (the joint_states stamps: when the node
+   published), the machine as it is and with ``--busy N`` busy Python processes.
 
-Usage: python bench/bench_node.py [--model rod|cst|love] [--seconds 10] [--only-gaps]
+Usage: python bench/bench_node.py [--model rod|cst|love] [--seconds 10]
+       [--only-fastest] [--only-gaps] [--busy 0] [--executors events,single]
 """
 import argparse
 import math
@@ -18,6 +24,7 @@ import pathlib
 import random
 import re
 import statistics
+import subprocess
 import sys
 import tempfile
 import time
@@ -28,6 +35,7 @@ os.environ.setdefault('TCA_TEST_DOMAIN', str(random.randint(100, 150)))
 
 from rclpy.qos import QoSProfile, ReliabilityPolicy  # noqa: E402
 from rosgraph_msgs.msg import Clock  # noqa: E402
+from sensor_msgs.msg import JointState  # noqa: E402
 from std_msgs.msg import Float64  # noqa: E402
 
 from test_node_harness import (  # noqa: E402, I100
@@ -37,11 +45,30 @@ TICKS_PER_SECOND = os.sysconf('SC_CLK_TCK')  # /proc/<pid>/stat time unit
 CONFIGS = ('free_stroke', 'self_coiled', 'conical')  # the shipped config/*.yaml
 STEP_POWER = 2.0  # W, the step of the output-gap figure
 COMMAND_PERIOD = 0.1  # s between its power commands (10 Hz, as a slow controller)
+PUBLISH_PERIOD = 0.01  # s, the shipped configs' publish_rate 100 Hz
 
 
 def _cpu_seconds(pid):
     fields = pathlib.Path(f'/proc/{pid}/stat').read_text().rsplit(')', 1)[1].split()
     return (int(fields[11]) + int(fields[12])) / TICKS_PER_SECOND  # utime + stime
+
+
+BUSY = 'while True:\n    sum(i * i for i in range(10000))\n'
+
+
+def start_busy(count):
+    """Start ``count`` Python processes that keep a core busy each; return them."""
+    return [subprocess.Popen([sys.executable, '-c', BUSY]) for _ in range(count)]
+
+
+def stop_busy(procs):
+    for proc in procs:
+        proc.kill()
+        proc.wait()
+
+
+def _stamp_s(msg):
+    return msg.header.stamp.sec + 1e-9 * msg.header.stamp.nanosec
 
 
 def _start(log_dir, model, *args, name='tca', config=CONFIG, env=None):
@@ -54,11 +81,13 @@ def _start(log_dir, model, *args, name='tca', config=CONFIG, env=None):
 
 
 def bench_gap(log_dir, config, seconds, cache):
-    """Return (longest gap (s), its start (s from the step), ready time (s), watchdog lines).
+    """Return (longest gap (s), its start (s from the step), ready time (s), watchdog lines,
+    longest gap between joint_states stamps (s), gaps between stamps of 3 periods or more).
 
     The node starts with its config's model and the table cache ``cache`` (a directory);
     a probe sends STEP_POWER at 10 Hz for ``seconds`` and records when each
-    ``displacement`` arrives. The node's publish period is 10 ms (publish_rate 100 Hz).
+    ``displacement`` arrives, and the stamps of ``joint_states`` (node time when the
+    node sampled and published). The node's publish period is 10 ms (publish_rate 100 Hz).
     """
     env = dict(os.environ, TCA_ROS_CACHE=str(cache))
     start = time.monotonic()
@@ -67,8 +96,9 @@ def bench_gap(log_dir, config, seconds, cache):
     ready = time.monotonic() - start
     probe = Probe()
     rows = probe.record('displacement', Float64)
+    joints = probe.record('joint_states', JointState)
     try:
-        probe.spin_until(lambda: rows, 20.0)
+        probe.spin_until(lambda: rows and joints, 20.0)
         t0 = time.monotonic()
         next_command = t0
         while time.monotonic() - t0 < seconds:
@@ -78,11 +108,14 @@ def bench_gap(log_dir, config, seconds, cache):
             probe.spin_for(0.005)
         times = [t for t, _ in rows if t >= t0]
         gap, at = max((b - a, a - t0) for a, b in zip(times, times[1:]))
+        stamps = [_stamp_s(m) for t, m in joints if t >= t0]
+        stamp_gaps = [b - a for a, b in zip(stamps, stamps[1:])]
+        late = sum(g >= 3 * PUBLISH_PERIOD for g in stamp_gaps)
         watchdog = node.log().count('watchdog')
     finally:
         probe.close()
         node.stop()
-    return gap, at, ready, watchdog
+    return gap, at, ready, watchdog, max(stamp_gaps), late
 
 
 def bench_cpu(log_dir, model, seconds):
@@ -104,25 +137,28 @@ def bench_cpu(log_dir, model, seconds):
     return cpu, rate
 
 
-def bench_fastest(log_dir, model, seconds, lockstep=False, reader=True):
+def bench_fastest(log_dir, model, seconds, lockstep=False, reader=False, pid_sim_time=False,
+                  env=None):
     """Return the real-time factor reached with publish_clock and factor 0.
 
-    With ``reader`` a client reads /clock (as a use_sim_time node does) and the factor is
-    measured from it; without, the node runs alone and its shutdown line is read.
+    Without ``reader`` the node's shutdown line gives it (sim time over the wall time
+    from its first tick); with ``reader`` a client reads /clock (as a use_sim_time node
+    does) and the factor is measured from it. ``lockstep``: with tca_pid at the node's
+    100 Hz, on use_sim_time if ``pid_sim_time`` (it then reads /clock too).
     """
-    probe = Probe()
+    probe = Probe() if reader else None
     if reader:
         # As rclpy's own /clock reader (TimeSource): best effort, depth 1.
         clocks = probe.record('/clock', Clock, qos=QoSProfile(
             depth=1, reliability=ReliabilityPolicy.BEST_EFFORT))
-    tag = f'fast{int(lockstep)}{int(reader)}'
+    tag = f'fast{int(lockstep)}{int(reader)}{int(pid_sim_time)}'
     node = _start(log_dir, model, '-p', 'publish_clock:=true', '-p', 'real_time_factor:=0.0',
-                  '-p', f'lockstep:={str(lockstep).lower()}', name=tag)
+                  '-p', f'lockstep:={str(lockstep).lower()}', name=tag, env=env)
     pid = None
     if lockstep:
         pid = NodeProcess(module_command('tca_ros.ros.pid_node', [
-            '-p', 'use_sim_time:=true', '-p', 'setpoint:=0.002']),
-            pathlib.Path(log_dir) / 'pid.log')
+            '-p', f'use_sim_time:={str(pid_sim_time).lower()}', '-p', 'setpoint:=0.002']),
+            pathlib.Path(log_dir) / f'pid{tag}.log', env=env)
     try:
         if not reader:
             time.sleep(seconds)
@@ -135,48 +171,97 @@ def bench_fastest(log_dir, model, seconds, lockstep=False, reader=True):
         probe.spin_for(seconds)
         factor = (_sim_seconds(clocks[-1][1]) - sim0) / (time.monotonic() - t0)
     finally:
-        probe.close()
+        if probe is not None:
+            probe.close()
+        node.stop()
         if pid is not None:
             pid.stop()
-        node.stop()
     return factor
 
 
-ECHO = """
+PING_PONG = """
+import statistics, sys, time
 import rclpy
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.experimental import EventsExecutor
 from rclpy.qos import QoSProfile
 from std_msgs.msg import Float64
+role, kind, trips = sys.argv[1], sys.argv[2], int(sys.argv[3])
 rclpy.init()
-node = rclpy.create_node('tca_bench_echo')
-pub = node.create_publisher(Float64, 'bench_pong', QoSProfile(depth=10))
-node.create_subscription(Float64, 'bench_ping', pub.publish, QoSProfile(depth=10))
-print('echo ready', flush=True)
-try:
-    rclpy.spin(node)
-except BaseException:
-    pass
+node = rclpy.create_node('tca_bench_' + role)
+executor = (EventsExecutor if kind == 'events' else SingleThreadedExecutor)(context=node.context)
+out, into = ('bench_pong', 'bench_ping') if role == 'echo' else ('bench_ping', 'bench_pong')
+pub = node.create_publisher(Float64, out, QoSProfile(depth=10))
+state = {'sent': 0.0, 'times': [], 'last': None}
+def on_message(msg):
+    if role == 'echo':
+        state['last'] = time.monotonic()
+        pub.publish(msg)
+    elif msg.data == len(state['times']):
+        state['times'].append(time.perf_counter() - state['sent'])
+        state['sent'] = time.perf_counter()
+        pub.publish(Float64(data=float(len(state['times']))))
+node.create_subscription(Float64, into, on_message, QoSProfile(depth=10))
+executor.add_node(node)
+print(role, 'ready', flush=True)
+deadline = time.monotonic() + 120.0
+while rclpy.ok() and time.monotonic() < deadline and len(state['times']) < trips:
+    executor.spin_once(timeout_sec=0.05)
+    if state['last'] is not None and time.monotonic() - state['last'] > 2.0:
+        break  # the echo's pinger is done
+    if role == 'ping' and time.perf_counter() - state['sent'] > 0.5:  # (re)start
+        if pub.get_subscription_count() and node.count_publishers(into):
+            state['sent'] = time.perf_counter()
+            pub.publish(Float64(data=float(len(state['times']))))
+if role == 'ping':
+    times = state['times'][trips // 10:]  # the first tenth warms up
+    print(f'round trip {statistics.median(times)} {statistics.mean(times)}', flush=True)
 """
 
 
-def bench_round_trip(log_dir, samples):
-    """Return round-trip times (s): Float64 to an rclpy echo process and back (loopback)."""
-    echo = NodeProcess([sys.executable, '-c', ECHO], pathlib.Path(log_dir) / 'echo.log')
-    echo.wait_for_log('echo ready')
-    probe = Probe()
-    rows = probe.record('bench_pong', Float64)
-    times = []
+def bench_round_trip(log_dir, executor, trips=3000):
+    """Return (median, mean) round trip (s) of a Float64 ping-pong between two processes.
+
+    Both spin ``executor`` ('events' or 'single'); one message is in flight at a time,
+    as in a lockstep loop. The mean sets the loop's rate.
+    """
+    procs = [NodeProcess([sys.executable, '-c', PING_PONG, role, executor, str(trips)],
+                         pathlib.Path(log_dir) / f'{role}_{executor}.log')
+             for role in ('echo', 'ping')]
     try:
-        probe.wait_matched('bench_pong')
-        for i in range(samples + 20):  # the first 20 warm up discovery and caches
-            value = float(i)
-            start = time.monotonic()
-            probe.publish('bench_ping', Float64(data=value))
-            if probe.spin_until(lambda: rows and rows[-1][1].data == value, 1.0) and i >= 20:
-                times.append(rows[-1][0] - start)
+        procs[1].proc.wait(150.0)
+        line = re.search(r'round trip ([0-9.e-]+) ([0-9.e-]+)', procs[1].log())
+        return (float(line.group(1)), float(line.group(2))) if line else (math.nan, math.nan)
     finally:
-        probe.close()
-        echo.stop()
-    return times
+        for proc in procs:
+            proc.stop()
+
+
+def lockstep_table(log_dir, model, seconds, executors):
+    """Print the lockstep figures, one column per executor, measured in this run."""
+    rows = {}
+    for executor in executors:
+        env = dict(os.environ, TCA_EXECUTOR=executor)
+        median, mean = bench_round_trip(log_dir, executor)
+        rows[executor] = [
+            bench_fastest(log_dir, model, seconds, env=env),
+            bench_fastest(log_dir, model, seconds, reader=True, env=env),
+            bench_fastest(log_dir, model, seconds, lockstep=True, env=env),
+            bench_fastest(log_dir, model, seconds, lockstep=True, pid_sim_time=True, env=env),
+            1e6 * median, 1e6 * mean, 0.01 / mean]
+    load1, load5, _ = os.getloadavg()
+    print(f'lockstep speed, model {model}, {seconds:g} s per figure, {os.cpu_count()} cores, '
+          f'load average {load1:.1f} / {load5:.1f} (1 / 5 min)')
+    labels = ['node alone, publish_clock, factor 0 (x)',
+              '  with a client reading /clock (x)',
+              'lockstep, tca_pid reading joint_states (x), target 30',
+              'lockstep, tca_pid on use_sim_time (+ /clock) (x)',
+              'rclpy round trip, two processes, median (us)',
+              '  mean (us)',
+              '  lockstep limit at 100 Hz: 10 ms / mean (x)']
+    print(f'{"figure":56s}' + ''.join(f'{e + " executor":>18s}' for e in executors))
+    for i, label in enumerate(labels):
+        print(f'{label:56s}' + ''.join(f'{rows[e][i]:18.1f}' for e in executors))
 
 
 def _sim_seconds(msg):
@@ -209,74 +294,79 @@ def main():
                                      formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     parser.add_argument('--model', default='rod', help='kinetostatic model (rod|cst|love)')
     parser.add_argument('--seconds', type=float, default=10.0, help='wall time per figure, s')
-    parser.add_argument('--only-fastest', action='store_true', help='skip CPU and latency')
+    parser.add_argument('--only-fastest', action='store_true',
+                        help='only the lockstep speed table')
     parser.add_argument('--only-gaps', action='store_true',
                         help='only the longest output gap per config')
+    parser.add_argument('--busy', type=int, default=0,
+                        help='also measure the gaps with this many busy Python processes')
+    parser.add_argument('--executors', default='events,single',
+                        help='executors of the lockstep table (TCA_EXECUTOR values)')
     args = parser.parse_args()
+    executors = args.executors.split(',')
     if args.only_gaps:
-        print_gaps(args.seconds)
+        print_gaps(args.seconds, args.busy)
         return 0
     if args.only_fastest:
         with tempfile.TemporaryDirectory() as log_dir:
-            alone = bench_fastest(log_dir, args.model, args.seconds, reader=False)
-            fast = bench_fastest(log_dir, args.model, args.seconds)
-            lock = bench_fastest(log_dir, args.model, args.seconds, lockstep=True)
-            trip = statistics.median(bench_round_trip(log_dir, 500))
-        print(f'fastest real-time factor, publish_clock, alone / with a /clock reader / in '
-              f'lockstep with tca_pid (x): {alone:.1f} / {fast:.1f} / {lock:.1f}')
-        print(f'rclpy loopback round trip, median: {1e3 * trip:.3f} ms, so at most '
-              f'{0.01 / trip:.1f}x real time in lockstep at 100 Hz')
+            lockstep_table(log_dir, args.model, args.seconds / 2, executors)
         return 0
     with tempfile.TemporaryDirectory() as log_dir:
         cpu, rate = bench_cpu(log_dir, args.model, args.seconds)
-        alone = bench_fastest(log_dir, args.model, args.seconds / 2, reader=False)
-        fast = bench_fastest(log_dir, args.model, args.seconds / 2)
-        lock = bench_fastest(log_dir, args.model, args.seconds / 2, lockstep=True)
         lat = sorted(bench_latency(log_dir, args.model, 100))
-        trip = statistics.median(bench_round_trip(log_dir, 500))
-    load1, load5, _ = os.getloadavg()
-    print(f'tca_node benchmark, model {args.model}, {os.cpu_count()} cores, '
-          f'load average {load1:.1f} / {load5:.1f} (1 / 5 min: other work shares the cores)')
-    print(f'{"figure":58s} {"value":>10s}  target')
-    print(f'{"CPU at 1 kHz physics / 100 Hz publishing (% of a core)":58s} '
-          f'{100 * cpu:10.1f}  < 25')
-    print(f'{"  publish rate seen by a client (Hz)":58s} {rate:10.1f}')
-    print(f'{"fastest real-time factor, publish_clock, node alone (x)":58s} {alone:10.1f}  >= 50')
-    print(f'{"  the same with a client reading /clock (x)":58s} {fast:10.1f}')
-    print(f'{"real-time factor, lockstep with tca_pid (x)":58s} {lock:10.1f}  >= 30')
-    print(f'{"rclpy loopback round trip, median (ms)":58s} {1e3 * trip:10.3f}')
-    print(f'{"  lockstep limit at 100 Hz, one round trip a tick (x)":58s} '
-          f'{0.01 / trip:10.1f}')
-    if lat:
-        print(f'{"power_cmd -> power latency, median (ms)":58s} '
-              f'{1e3 * statistics.median(lat):10.2f}')
-        print(f'{"power_cmd -> power latency, 95th percentile (ms)":58s} '
-              f'{1e3 * lat[int(0.95 * (len(lat) - 1))]:10.2f}')
-        print(f'{"power_cmd -> power latency, max (ms)":58s} {1e3 * lat[-1]:10.2f}')
-    print_gaps(args.seconds)
+        load1, load5, _ = os.getloadavg()
+        print(f'tca_node benchmark, model {args.model}, {os.cpu_count()} cores, '
+              f'load average {load1:.1f} / {load5:.1f} (1 / 5 min: other work shares the '
+              f'cores), executor {os.environ.get("TCA_EXECUTOR", "default")}')
+        print(f'{"figure":58s} {"value":>10s}  target')
+        print(f'{"CPU at 1 kHz physics / 100 Hz publishing (% of a core)":58s} '
+              f'{100 * cpu:10.1f}  < 25')
+        print(f'{"  publish rate seen by a client (Hz)":58s} {rate:10.1f}')
+        if lat:
+            print(f'{"power_cmd -> power latency, median (ms)":58s} '
+                  f'{1e3 * statistics.median(lat):10.2f}')
+            print(f'{"power_cmd -> power latency, 95th percentile (ms)":58s} '
+                  f'{1e3 * lat[int(0.95 * (len(lat) - 1))]:10.2f}')
+            print(f'{"power_cmd -> power latency, max (ms)":58s} {1e3 * lat[-1]:10.2f}')
+        lockstep_table(log_dir, args.model, args.seconds / 2, executors)
+    print_gaps(args.seconds, args.busy)
     return 0
 
 
-def print_gaps(seconds):
+def print_gaps(seconds, busy=0):
     """Print the longest output gap under a 2 W step for each shipped config.
 
     Each config first with an empty table cache (the conical rows are then built while
-    the node runs), then the conical one again with the rows its first run cached.
+    the node runs), then the conical one again with the rows its first run cached (those
+    its temperatures reached, and the worker's meanwhile); with
+    ``busy``, all of it again while that many busy processes load the machine.
     """
+    for load in ([0, busy] if busy else [0]):
+        procs = start_busy(load)
+        try:
+            time.sleep(1.0 if load else 0.0)
+            _print_gap_table(seconds, load)
+        finally:
+            stop_busy(procs)
+
+
+def _print_gap_table(seconds, busy):
     load1, _, _ = os.getloadavg()
-    print(f'longest gap between displacement messages, {STEP_POWER:g} W step, commands at '
-          f'10 Hz for {seconds:g} s (publish period 10 ms, target < 3 periods; load average '
-          f'{load1:.1f} on {os.cpu_count()} cores)')
+    print(f'longest gap between outputs, {STEP_POWER:g} W step, commands at 10 Hz for '
+          f'{seconds:g} s (publish period 10 ms, target < 3 periods; {busy} busy processes, '
+          f'load average {load1:.1f} on {os.cpu_count()} cores, executor '
+          f'{os.environ.get("TCA_EXECUTOR", "default")})')
     print(f'{"config":28s} {"ready (s)":>10s} {"gap (ms)":>10s} {"periods":>8s} '
-          f'{"at (s)":>7s} {"watchdog lines":>15s}')
+          f'{"at (s)":>7s} {"node gap (ms)":>14s} {"node gaps >= 3":>15s} {"watchdog":>9s}')
     with tempfile.TemporaryDirectory() as log_dir:
         runs = [(config, 'empty cache', config) for config in CONFIGS]
-        runs.append(('conical', 'rows cached', 'conical'))
+        runs.append(('conical', 'run 1 rows cached', 'conical'))
         for config, cache_state, cache in runs:
-            gap, at, ready, watchdog = bench_gap(log_dir, config, seconds,
-                                                 pathlib.Path(log_dir) / f'cache_{cache}')
+            gap, at, ready, watchdog, node_gap, late = bench_gap(
+                log_dir, config, seconds, pathlib.Path(log_dir) / f'cache_{cache}')
             print(f'{config + ", " + cache_state:28s} {ready:10.1f} {1e3 * gap:10.1f} '
-                  f'{gap / 0.01:8.1f} {at:7.2f} {watchdog:15d}')
+                  f'{gap / PUBLISH_PERIOD:8.1f} {at:7.2f} {1e3 * node_gap:14.1f} {late:15d} '
+                  f'{watchdog:9d}')
 
 
 if __name__ == '__main__':

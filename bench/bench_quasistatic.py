@@ -12,9 +12,10 @@ import time
 
 import numpy as np
 
-from tca_ros.model.params import GRAVITY, load_params
+from tca_ros.model.params_schema import GRAVITY
 from tca_ros.model.quasistatic import simulate_quasistatic
 from tca_ros.model.simulation import simulate
+from tca_ros.params.files import load_params
 
 DURATION = 240.0  # s, the record
 RATE = 10.0  # Hz, the diagnosis's fit grid (fitting.FIT_RATE_HZ)

@@ -24,7 +24,8 @@ from tca_ros.calibration.calibration import calibrate
 from tca_ros.calibration.calibration_report import format_summary
 from tca_ros.calibration.validation import format_table, leave_one_condition_out
 from tca_ros.model.muscle import describe_muscle, MuscleSpec
-from tca_ros.model.params import load_params
+from tca_ros.params.files import load_params
+from tca_ros.params.thread_presets import load_thread_presets
 from tca_ros.records.data import read_record
 
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -54,7 +55,7 @@ def main(argv=None):
         return 0
     records = [read_record(p) for p in paths]
     params = (load_params(args.config) if args.config
-              else describe_muscle(SALP_MUSCLE).params)
+              else describe_muscle(SALP_MUSCLE, load_thread_presets()).params)
     print(f'{len(records)} records from {args.dir}; model {args.model}, supply {args.supply}')
     start = time.perf_counter()
     cal = calibrate(records, params, model=args.model, supply=args.supply, check=False)

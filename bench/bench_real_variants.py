@@ -34,7 +34,8 @@ import numpy as np
 
 from tca_ros.diagnosis.identification import diagnose
 from tca_ros.model.muscle import describe_muscle
-from tca_ros.model.params import dump_params
+from tca_ros.params.files import dump_params
+from tca_ros.params.thread_presets import load_thread_presets
 from tca_ros.records.data import read_record, write_csv_record
 from tca_ros.records.record_ops import decimated
 from tca_ros.synthetic.realistic import ar1
@@ -78,7 +79,7 @@ def run_case(args):
     start_path = os.path.join(work, f'{tag}.yaml')
     spec = dataclasses.replace(SALP_MUSCLE, loaded_length=_length(path),
                                mandrel_diameter=_mandrel(path))
-    dump_params(describe_muscle(spec).params, start_path)
+    dump_params(describe_muscle(spec, load_thread_presets()).params, start_path)
     t0 = time.process_time()
     row = {'record': name, 'variant': variant}
     try:

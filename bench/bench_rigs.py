@@ -10,8 +10,8 @@ what the code costs. Usage: ``python bench/bench_rigs.py [--seconds 20]``.
 import argparse
 import time
 
-from tca_ros.model.params import load_params
 from tca_ros.model.rigs import make_rig
+from tca_ros.params.files import load_params
 
 RIGS = ('dead_weight', 'spring', 'isometric', 'antagonistic')
 MODELS = ('rod', 'cst', 'love')

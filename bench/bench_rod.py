@@ -12,9 +12,10 @@ import timeit
 import numpy as np
 
 from tca_ros.model.kinetostatic_models import make_kinetostatic_model
-from tca_ros.model.params import GRAVITY, load_params
+from tca_ros.model.params_schema import GRAVITY
 from tca_ros.model.rod_model import rod_reference, rod_statics_sweep, stiffness_vector
 from tca_ros.model.simulation import simulate, static_displacement
+from tca_ros.params.files import load_params
 from tca_ros.rod.statics import solve_rod_statics
 
 TARGETS = {'bvp_warm': 50e-3, 'sweep': 2.0, 'frod': 20e-6, 'realtime': 50.0}

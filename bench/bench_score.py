@@ -10,7 +10,7 @@ import argparse
 import os
 import time
 
-from tca_ros.model.params import load_params
+from tca_ros.params.files import load_params
 from tca_ros.ros.pid_node import PARAMETERS, PidController
 from tca_ros.toolkit.scoring import format_table, law_controller, run_tasks
 from tca_ros.toolkit.tasks import DEFAULT_TASKS, TASKS_VERSION

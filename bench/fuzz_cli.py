@@ -36,8 +36,8 @@ import tca_ros.calibration.calibration  # noqa: E402, F401, I100, I202
 from tca_ros.cli.main import main, MESSAGE_CHARS  # noqa: E402
 from tca_ros.diagnosis import diagnose  # noqa: E402, F401 (loaded before forking)
 import tca_ros.diagnosis.fitting  # noqa: E402, F401
-from tca_ros.model.params import config_dir  # noqa: E402
 import tca_ros.model.rig_simulation  # noqa: E402, F401
+from tca_ros.params.config_search import config_dir  # noqa: E402
 from tca_ros.records.data import read_record  # noqa: E402
 
 # A hang is a run past its stated limit, measured in CPU seconds of the child (the

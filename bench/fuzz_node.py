@@ -50,7 +50,7 @@ from sensor_msgs.msg import JointState, Temperature  # noqa: E402
 from std_msgs.msg import Float64  # noqa: E402
 from std_srvs.srv import Trigger  # noqa: E402
 
-from tca_ros.model.params import SCHEMA  # noqa: E402
+from tca_ros.model.params_schema import SCHEMA  # noqa: E402
 from tca_ros.ros.node import NODE_SCHEMA  # noqa: E402
 from test_node_harness import (  # noqa: E402, I100, I201
     CONFIG, module_command, NodeProcess, Probe)

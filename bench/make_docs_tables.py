@@ -30,8 +30,8 @@ from tca_ros.calibration import candidates as cand
 from tca_ros.cli.main import main as tca_sim
 from tca_ros.diagnosis.joint import FAMILIES
 from tca_ros.model.effects import CATALOGUE
-from tca_ros.model.params import load_params
 from tca_ros.model.params_schema import SPECS
+from tca_ros.params.files import load_params
 from tca_ros.synthetic import generator as gen
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]

@@ -19,8 +19,9 @@ import os
 
 import numpy as np
 
-from tca_ros.model.params import GRAVITY, load_params
+from tca_ros.model.params_schema import GRAVITY
 from tca_ros.model.simulation import simulate
+from tca_ros.params.files import load_params
 from tca_ros.records.data import write_csv_record
 from tca_ros.records.record import Record
 

@@ -18,9 +18,10 @@ import os
 
 import numpy as np
 
-from tca_ros.model.params import load_params, with_effects
 from tca_ros.model.rig_simulation import simulate_rig
 from tca_ros.model.simulation import simulate
+from tca_ros.model.tca_params import with_effects
+from tca_ros.params.files import load_params
 from tca_ros.toolkit.batch import simulate_batch
 from tca_ros.toolkit.linearize import linearize
 

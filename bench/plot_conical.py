@@ -13,8 +13,8 @@ import os
 import numpy as np
 
 from tca_ros.model.conical import conical_end_height
-from tca_ros.model.params import load_params
 from tca_ros.model.simulation import simulate
+from tca_ros.params.files import load_params
 
 GRAVITY = 9.81  # m/s^2
 MASSES = (0.0, 0.002, 0.010)  # kg hanging from the free end

@@ -19,9 +19,10 @@ import numpy as np  # noqa: E402
 
 from tca_ros.model.kinetostatic_models import make_kinetostatic_model  # noqa: E402
 from tca_ros.model.kinetostatics import contact_elongation  # noqa
-from tca_ros.model.params import GRAVITY, load_params  # noqa: E402
+from tca_ros.model.params_schema import GRAVITY  # noqa: E402
 from tca_ros.model.reference_state import crept_under  # noqa: E402
 from tca_ros.model.simulation import static_displacement  # noqa: E402
+from tca_ros.params.files import load_params  # noqa: E402
 
 MASSES = (0.002, 0.030, 0.060)  # kg, the free-stroke weights of Fig. 10(c)
 READINGS = (('Table III', False), ('crept', True))

@@ -16,9 +16,10 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from tca_ros.model.kinetostatics import contact_elongation  # noqa: E402
-from tca_ros.model.params import GRAVITY, load_params  # noqa: E402
+from tca_ros.model.params_schema import GRAVITY  # noqa: E402
 from tca_ros.model.rod_model import rod_statics_sweep, solution_elongation  # noqa: E402
 from tca_ros.model.simulation import static_displacement  # noqa: E402
+from tca_ros.params.files import load_params  # noqa: E402
 
 CASES = (('self_coiled', (0.050, 0.100, 0.200)), ('free_stroke', (0.002, 0.030, 0.060)))
 STYLES = {'rod': '-', 'cst': '--', 'love': ':'}

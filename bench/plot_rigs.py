@@ -17,11 +17,11 @@ import os
 import numpy as np
 
 from tca_ros.model.kinetostatic_models import make_kinetostatic_model
-from tca_ros.model.params import load_params
 from tca_ros.model.rig_simulation import simulate_rig
 from tca_ros.model.rig_statics import antagonistic_rest_angle, isometric_force
 from tca_ros.model.rig_statics import spring_rest_state
 from tca_ros.model.thermal import steady_state_temperature
+from tca_ros.params.files import load_params
 
 MODELS = ('rod', 'cst', 'love')
 SAMPLE = 0.1  # s between output samples

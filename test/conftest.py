@@ -1,7 +1,7 @@
 """Shared fixtures of the tca_ros test suite."""
 import pytest
 
-from tca_ros.model.params import load_params
+from tca_ros.params.files import load_params
 
 
 @pytest.fixture(scope='session')

@@ -8,9 +8,9 @@ import pytest
 from tca_ros.model.dynamics import TcaSimulator
 from tca_ros.model.kinetostatic_models import make_kinetostatic_model
 from tca_ros.model.kinetostatics import contact_elongation
-from tca_ros.model.params import with_effects
 from tca_ros.model.resistance import power_from_voltage
 from tca_ros.model.simulation import simulate
+from tca_ros.model.tca_params import with_effects
 from tca_ros.toolkit.batch import BatchSimulator, simulate_batch
 from tca_ros.toolkit.batch_forces import cst_tension, MuscleArrays
 

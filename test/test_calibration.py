@@ -19,9 +19,11 @@ from tca_ros.calibration.calibration import apply_calibration, calibrate
 from tca_ros.calibration.lumped import fit_lumped, lumped_response
 from tca_ros.cli.main import main
 from tca_ros.model.muscle import describe_muscle, MuscleSpec
-from tca_ros.model.params import dump_params, GRAVITY, load_params
+from tca_ros.model.params_schema import GRAVITY
 from tca_ros.model.simulation import simulate
 from tca_ros.model.thermal import heat_capacity, thermal_conductance
+from tca_ros.params.files import dump_params, load_params
+from tca_ros.params.thread_presets import load_thread_presets
 from tca_ros.records.data import write_csv_record
 from tca_ros.synthetic.realistic import bench_record, realistic_set
 
@@ -64,7 +66,8 @@ def test_nylon6_monofilament_muscle_is_calibrated_too():
     spec = MuscleSpec(thread='nylon6_monofilament', thread_diameter=0.5e-3, coil='mandrel',
                       mandrel_diameter=1.5e-3, pitch_angle_deg=25.0, natural_length=0.04,
                       resistance=10.0, mass=0.05, model='cst')
-    s = realistic_set(21, config=describe_muscle(spec).params, mass=0.05, drift=0.0)
+    s = realistic_set(21, config=describe_muscle(spec, load_thread_presets()).params,
+                      mass=0.05, drift=0.0)
     cal = calibrate(s.records, s.start, model='cst', check=False)
     assert cal.report.success, cal.report.message
     for name, est in cal.report.estimates.items():
@@ -115,7 +118,7 @@ def test_a_real_calibration_is_continuous_in_its_data():
     spec = MuscleSpec(thread='nylon66_silver', thread_diameter=0.45e-3, coil='mandrel',
                       mandrel_diameter=0.8e-3, pitch_angle_deg=22.5, loaded_length=0.1371,
                       resistance=13.3, mass=0.01)
-    params = describe_muscle(spec).params.with_values(model='rod')
+    params = describe_muscle(spec, load_thread_presets()).params.with_values(model='rod')
     values = []
     for r in (record, rounded):
         head = decimated(leading_part(r, 0.7), CALIBRATION_RATE_HZ)
@@ -232,7 +235,8 @@ def test_the_damping_bound_is_ten_times_critical_or_ten_times_the_start():
     # a 10 g weight on the free-stroke coil: k about 24 N/m, critical 2 sqrt(k m)
     from tca_ros.calibration.calibration import damping_bound, MAX_DAMPING_RATIO
     from tca_ros.model.end_motion import critical_damping
-    from tca_ros.model.params import GRAVITY, load_params
+    from tca_ros.model.params_schema import GRAVITY
+    from tca_ros.params.files import load_params
     params = load_params('free_stroke').with_values(**{
         'dynamics.mass': 0.01, 'dynamics.load': 0.01 * GRAVITY, 'dynamics.damping': 0.01})
     bound = damping_bound(params, 'cst')

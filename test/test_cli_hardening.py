@@ -15,7 +15,7 @@ import pytest
 
 from tca_ros.calibration.residuals import heating_mask
 from tca_ros.cli.main import main, MAX_CONICAL_SHAPES, MAX_POWER_W, MESSAGE_CHARS
-from tca_ros.model.params import config_dir
+from tca_ros.params.config_search import config_dir
 
 FAST_S = 5.0  # s: a refusal is decided before any simulation, well within this
 HEADER = '# tca: {tca}\n# mass_kg: 0.03\n# sample_rate_hz: {rate}\n'

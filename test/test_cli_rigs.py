@@ -5,8 +5,8 @@ import numpy as np
 
 from tca_ros.cli.main import main
 from tca_ros.model.kinetostatic_models import make_kinetostatic_model
-from tca_ros.model.params import load_params
 from tca_ros.model.rig_statics import isometric_force
+from tca_ros.params.files import load_params
 
 
 def _run(tmp_path, text, *options):

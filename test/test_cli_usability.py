@@ -111,6 +111,28 @@ def test_an_abbreviated_flag_is_unrecognized_not_guessed(capsys, argv):
     assert err == f'tca_sim {argv[0]}: error: unrecognized arguments: {argv[1]}\n', err
 
 
+def _documented_options():
+    """Return {command words: set of flags} of docs/cli.md's 'Every option' list."""
+    section = (ROOT / 'docs' / 'cli.md').read_text().split('## Every option', 1)[1]
+    section = section.split('\n## ', 1)[0]
+    documented = {}
+    for item in re.split(r'\n- ', section)[1:]:
+        command = re.match(r'`([a-z ]+?)(?: RECORD\.\.\.)?`:', item).group(1)
+        documented[tuple(command.split())] = set(re.findall(r'`(--[a-z-]+)`', item))
+    return documented
+
+
+def test_docs_cli_lists_every_option_of_every_subcommand_and_no_other():
+    documented = _documented_options()
+    commands = {path: parser for path, parser in parsers() if path and not any(
+        isinstance(a, argparse._SubParsersAction) for a in parser._actions)}
+    assert set(documented) == set(commands)
+    for path, parser in commands.items():
+        flags = {o for a in parser._actions for o in a.option_strings
+                 if o.startswith('--') and o != '--help'}
+        assert documented[path] == flags, path
+
+
 # -- help: description, one default per option, an example that runs -----------------
 def _help(path, capsys):
     code, out, _ = run([*path, '--help'], capsys)

@@ -8,7 +8,7 @@ import pathlib
 import pytest
 
 from tca_ros.cli.main import main
-from tca_ros.model.params import dump_params, load_params
+from tca_ros.params.files import dump_params, load_params
 from tca_ros.records.data import read_record
 from tca_ros.records.examples import EXAMPLES_DIR, resolve_example, shipped_examples
 

@@ -14,8 +14,8 @@ import pytest
 from tca_ros.cli.main import main
 from tca_ros.model.conical import conical_end_height, HANGING, hanging_statics
 from tca_ros.model.kinetostatic_models import make_kinetostatic_model
-from tca_ros.model.params import load_params
 from tca_ros.model.simulation import simulate
+from tca_ros.params.files import load_params
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 SCRIPT = ROOT / 'bench' / 'plot_conical.py'
@@ -109,3 +109,21 @@ def test_figure_numbers_are_the_models(conical, loaded_25):
         assert dynamic[k][0] == pytest.approx(time[k])
         assert dynamic[k][1] == pytest.approx(temp[k], abs=1e-6)
         assert dynamic[k][2] == pytest.approx(height[k], abs=1e-8)  # %.6e in the CSV
+
+
+def test_rows_persist_in_the_params_layers_store(conical, tmp_path, monkeypatch):
+    """The model solves a row; tca_ros.params.row_cache keeps it on disk, read back bit for bit."""
+    from tca_ros.model import conical_table
+    from tca_ros.model.rod_model import mechanical_params
+    from tca_ros.params.row_cache import DiskRowStore
+    assert isinstance(conical_table._default_store, DiskRowStore)  # installed by tca_ros.params
+    store = DiskRowStore(str(tmp_path))
+    solved = conical_table.ConicalTable(mechanical_params(conical), store=store).row(0)
+    assert len(list(tmp_path.glob('conical_*_000.npz'))) == 1
+
+    def no_solve(*args):
+        raise AssertionError('row solved again instead of read from the store')
+    monkeypatch.setattr(conical_table, 'build_row', no_solve)
+    read = conical_table.ConicalTable(mechanical_params(conical), store=store).row(0)
+    for name, value in solved.__dict__.items():
+        assert np.array_equal(getattr(read, name), value), name

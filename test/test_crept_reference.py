@@ -14,9 +14,11 @@ import pytest
 from tca_ros.cli.main import main
 from tca_ros.model.kinetostatic_models import make_kinetostatic_model
 from tca_ros.model.kinetostatics import contact_elongation
-from tca_ros.model.params import dump_params, GRAVITY, ParameterError, to_flat_dict
+from tca_ros.model.params_schema import GRAVITY, ParameterError
 from tca_ros.model.reference_state import crept_pitch_angle, crept_under
 from tca_ros.model.simulation import static_displacement
+from tca_ros.model.tca_params import to_flat_dict
+from tca_ros.params.files import dump_params
 
 #: The authors' TCA_geo.m: rest pitch angle (deg) looked up by hanging mass (kg).
 AUTHORS_TABLE = {0.0: 15.0, 0.002: 16.0, 0.030: 20.0, 0.060: 22.0}

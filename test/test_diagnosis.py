@@ -15,8 +15,8 @@ import pytest
 
 from tca_ros.diagnosis import DataError, diagnose, format_summary
 from tca_ros.model.effects import CATALOGUE
-from tca_ros.model.params import load_params
 from tca_ros.model.simulation import simulate
+from tca_ros.params.files import load_params
 from tca_ros.records.data import write_csv_record
 from tca_ros.synthetic.generator import make_synthetic_record
 

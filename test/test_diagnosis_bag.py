@@ -2,7 +2,8 @@
 import numpy as np
 import pytest
 
-from tca_ros.model.params import GRAVITY, load_params
+from tca_ros.model.params_schema import GRAVITY
+from tca_ros.params.files import load_params
 from tca_ros.records.data import DataError, read_bag_record, read_record
 
 RATE = 20.0  # Hz, the joint_states rate of the bags below

@@ -6,7 +6,7 @@ from tca_ros.calibration.candidates import absorbed_candidates, build_candidates
     RECALIBRATION, recalibration_spaces
 from tca_ros.calibration.physical_priors import prior_spreads
 from tca_ros.diagnosis import diagnose
-from tca_ros.model.params import dump_params, load_params
+from tca_ros.params.files import dump_params, load_params
 from tca_ros.synthetic.descriptions import describe, EXACT_SPREAD, LOOSE
 from tca_ros.synthetic.realistic import realistic_case, truth_path
 

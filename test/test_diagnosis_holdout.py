@@ -118,7 +118,7 @@ def test_friction_in_a_one_step_record_of_another_plant_is_named_at_its_size(tmp
     # fitted with the rod model. Friction shows first in the cooling (the end held up);
     # the held-out blocks let the calibration see a cooling and judge another
     from tca_ros.diagnosis import diagnose
-    from tca_ros.model.params import dump_params
+    from tca_ros.params.files import dump_params
     from tca_ros.records.data import write_csv_record
     from tca_ros.synthetic.realistic import bench_record, realistic_set
     s = realistic_set(15, drift=0.0)

@@ -15,8 +15,8 @@ from tca_ros.cli.main import main
 from tca_ros.diagnosis import diagnose, format_summary
 from tca_ros.diagnosis.parameter_names import format_nominal, nominal_value, \
     plausibility_lines
-from tca_ros.model.params import load_params
 from tca_ros.model.thermal import fiber_mass
+from tca_ros.params.files import load_params
 
 EXAMPLE = pathlib.Path(tca_ros.__file__).parent / 'data' / 'example_recording.csv'
 CONFIG = pathlib.Path(tca_ros.__file__).parent.parent / 'config' / 'free_stroke.yaml'

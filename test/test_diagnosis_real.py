@@ -13,8 +13,9 @@ import pytest
 
 from tca_ros.diagnosis import diagnose, format_summary
 from tca_ros.diagnosis.verdict import needs_explaining, ONE_LOAD_NOTE
-from tca_ros.model.params import dump_params, GRAVITY
+from tca_ros.model.params_schema import GRAVITY
 from tca_ros.model.simulation import simulate
+from tca_ros.params.files import dump_params
 from tca_ros.records.data import write_csv_record
 from tca_ros.synthetic.realistic import bench_record, realistic_case, realistic_loads, \
     realistic_set
@@ -233,7 +234,7 @@ def test_a_hidden_friction_is_fitted_at_its_force_without_spoiling_the_temperatu
     # refitted damping (docs/decisions.md G12, G13) friction came out at 13.1 mN (truth
     # 15.1 mN; 7.3 mN with the fit scales alone) and the extended model's held-out
     # temperature error at 1.43 K (nominal 0.24 K).
-    from tca_ros.model.params import load_params
+    from tca_ros.params.files import load_params
     from tca_ros.synthetic.realistic import truth_path
     path, start = realistic_case(9044, ['friction'], str(tmp_path))
     truth = load_params(truth_path(str(tmp_path), 9044)).effects.friction_force
@@ -272,7 +273,7 @@ def test_a_creep_the_calibration_took_as_softness_is_found_by_a_joint_calibratio
     # (x/÷ 2 on the stiffness) calibrate-first took the creep up as a coil seven times too
     # soft (stiffness scale 0.14) and only a joint calibration found it; with the physical
     # prior (x/÷ 1.5) the stiffness stays plausible and the search names creep itself.
-    from tca_ros.model.params import load_params
+    from tca_ros.params.files import load_params
     from tca_ros.synthetic.realistic import truth_path
     path, start = realistic_case(9014, ['creep'], str(tmp_path))
     truth = load_params(truth_path(str(tmp_path), 9014)).effects
@@ -295,7 +296,7 @@ def test_two_effects_no_single_one_explains_are_found_by_a_joint_pair(tmp_path, 
     # but leaves structure; the pair, calibrated jointly, explains it (docs/diagnosis_method.md).
     # Without the pair stage the same record is not explained.
     from tca_ros.diagnosis import joint
-    from tca_ros.model.params import load_params
+    from tca_ros.params.files import load_params
     from tca_ros.synthetic.realistic import truth_path
     hidden = ['ambient_offset', 'second_thermal_lag']
     path, start = realistic_case(9200, hidden, str(tmp_path), plant='rod')

@@ -15,8 +15,8 @@ import pytest
 from tca_ros.calibration.candidates import build_candidates
 from tca_ros.diagnosis.fitting import FitProblem, STOP
 from tca_ros.model.dynamics import TcaSimulator
-from tca_ros.model.params import load_params
 from tca_ros.model.simulation import simulate
+from tca_ros.params.files import load_params
 from tca_ros.synthetic.generator import make_synthetic_record
 
 

@@ -57,7 +57,7 @@ def test_parameter_space_round_trip(space):
 def test_power_loss_is_not_searched_beside_a_refitted_delivered_power_ratio():
     from tca_ros.calibration.candidates import absorbed_candidates, build_candidates, \
         recalibration_spaces
-    from tca_ros.model.params import load_params
+    from tca_ros.params.files import load_params
     params = load_params('free_stroke', model='cst')
     candidates = build_candidates(params, 'cst', 0.29, 5e-3)
     kept, absorbed = absorbed_candidates(candidates, recalibration_spaces(params)[0])
@@ -69,7 +69,7 @@ def test_power_loss_is_not_searched_beside_a_refitted_delivered_power_ratio():
 
 def test_the_damping_is_refitted_around_its_value_and_left_fixed_at_zero():
     from tca_ros.calibration.candidates import recalibration_spaces
-    from tca_ros.model.params import load_params
+    from tca_ros.params.files import load_params
     params = load_params('free_stroke', model='cst')
     spaces, values = recalibration_spaces(params)
     damping = {s.name: s for s in spaces}['dynamics.damping']
@@ -89,7 +89,7 @@ def test_a_calibrated_params_file_without_damping_is_diagnosed(tmp_path, capsys)
     import pathlib
     import tca_ros
     from tca_ros.cli.main import main
-    from tca_ros.model.params import dump_params, load_params
+    from tca_ros.params.files import dump_params, load_params
     params = tmp_path / 'no_damping.yaml'
     dump_params(load_params('free_stroke').with_values(**{'dynamics.damping': 0.0}),
                 str(params))
@@ -149,7 +149,7 @@ def test_a_lag_effect_is_also_screened_with_the_dampings_lag_handed_over():
     from tca_ros.calibration.candidates import recalibration_spaces
     from tca_ros.diagnosis.fitting import FitProblem
     from tca_ros.diagnosis.search import _lag_exchange, EXCHANGE_FACTOR
-    from tca_ros.model.params import load_params
+    from tca_ros.params.files import load_params
     from tca_ros.synthetic.generator import make_synthetic_record
     record = make_synthetic_record(5, effects=None, duration=60.0, sample_rate=10.0).record
     params = load_params('free_stroke', model='cst').with_values(**{'dynamics.damping': 20.0})
@@ -171,7 +171,7 @@ def test_the_joint_calibration_takes_the_first_rounds_best_and_the_lag_siblings(
     from tca_ros.calibration.candidates import build_candidates
     from tca_ros.diagnosis.joint import joint_order, JOINT_TOP
     from tca_ros.diagnosis.search import SearchRound
-    from tca_ros.model.params import load_params
+    from tca_ros.params.files import load_params
     params = load_params('free_stroke', model='cst')
     candidates = build_candidates(params, 'cst', 0.2, 5e-3)
     ranking = ['coil_contact', 'dead_time', 'creep', 'hysteresis', 'radiation',
@@ -202,7 +202,7 @@ def test_pairs_start_from_single_joint_fits_that_help_and_take_partners_outside_
     from tca_ros.calibration.candidates import build_candidates
     from tca_ros.diagnosis.joint import JointFit, MAX_PAIRS, pair_order
     from tca_ros.diagnosis.search import SearchRound
-    from tca_ros.model.params import load_params
+    from tca_ros.params.files import load_params
     candidates = build_candidates(load_params('free_stroke', model='cst'), 'cst', 0.2, 5e-3)
 
     def fit(name, criterion):
@@ -233,7 +233,7 @@ def test_pairs_start_from_single_joint_fits_that_help_and_take_partners_outside_
 
 def test_changed_values_lists_what_a_joint_calibration_moved():
     from tca_ros.diagnosis.joint import changed_values
-    from tca_ros.model.params import load_params
+    from tca_ros.params.files import load_params
     params = load_params('free_stroke')
     moved = params.with_values(**{'effects.creep_compliance': 0.01,
                                   'moduli.youngs_modulus': 2.0e9})
@@ -247,7 +247,8 @@ def test_a_calibration_fits_a_catalogue_effect_parameter_named_in_fit(tmp_path):
     # nominal parameters on a record of a creeping muscle simulated by the rod model
     # (the fit runs cst) from a perturbed description
     from tca_ros.calibration.calibration import calibrate, CalibrationError
-    from tca_ros.model.params import GRAVITY, load_params
+    from tca_ros.model.params_schema import GRAVITY
+    from tca_ros.params.files import load_params
     from tca_ros.model.simulation import simulate
     from tca_ros.records.record import Record
     base = load_params('free_stroke')

@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 
 from tca_ros.model import end_motion, substeps, thermal
-from tca_ros.model.params import with_effects
 from tca_ros.model.rigs import tendon_force
+from tca_ros.model.tca_params import with_effects
 
 
 @pytest.fixture(scope='module')

@@ -6,9 +6,10 @@ import pytest
 
 from tca_ros.model import effects as fx
 from tca_ros.model.dynamics import TcaSimulator
-from tca_ros.model.params import EffectParams, load_params
 from tca_ros.model.quasistatic import simulate_quasistatic
 from tca_ros.model.simulation import simulate
+from tca_ros.model.tca_params import EffectParams
+from tca_ros.params.files import load_params
 
 MASS = 0.01  # kg, the 10 g weight of the recorded rigs
 LOAD = MASS * 9.81  # N

@@ -1,7 +1,10 @@
-"""Imports point one way: rod <- model <- records <- calibration <- diagnosis.
+"""Imports point one way: rod <- model <- params <- records <- calibration <- diagnosis.
 
-synthetic above them; toolkit beside them, on the physics only; ros and cli on top.
+synthetic above them; toolkit beside them, on the physics and its params files only;
+ros and cli on top. The physics (rod, model) reads and writes no files: params does.
 """
+import ast
+import pathlib
 import subprocess
 import sys
 
@@ -14,8 +17,9 @@ try:
 except ImportError:
     pass
 bad = sorted(m for m in sys.modules if m.split('.')[0] in ('rclpy', 'matplotlib')
-             or m.startswith(('tca_ros.records', 'tca_ros.calibration', 'tca_ros.diagnosis',
-                              'tca_ros.synthetic', 'tca_ros.ros', 'tca_ros.cli')))
+             or m.startswith(('tca_ros.params', 'tca_ros.records', 'tca_ros.calibration',
+                              'tca_ros.diagnosis', 'tca_ros.synthetic', 'tca_ros.ros',
+                              'tca_ros.cli')))
 print(','.join(bad))
 """
 
@@ -27,10 +31,10 @@ def test_physics_layers_import_neither_rclpy_nor_matplotlib():
 
 
 # --- packages that show the layers (issue 26) ---
-PACKAGE_RANK = {'rod': 0, 'model': 1, 'records': 2, 'calibration': 3, 'diagnosis': 4,
-                'synthetic': 5, 'ros': 6, 'cli': 7}
-#: toolkit sits beside records..synthetic: it builds on the physics only.
-TOOLKIT_MAY_IMPORT = {'rod', 'model', 'toolkit'}
+PACKAGE_RANK = {'rod': 0, 'model': 1, 'params': 2, 'records': 3, 'calibration': 4,
+                'diagnosis': 5, 'synthetic': 6, 'ros': 7, 'cli': 8}
+#: toolkit sits beside records..synthetic: it builds on the physics and its params files.
+TOOLKIT_MAY_IMPORT = {'rod', 'model', 'params', 'toolkit'}
 
 
 def _package_of(module):
@@ -74,7 +78,73 @@ def test_the_layer_rule_can_fail():
     graph = {'tca_ros.model.a': {'tca_ros.calibration.b'},
              'tca_ros.toolkit.c': {'tca_ros.records.d'},
              'tca_ros.ros.e': {'tca_ros.cli.f'},
-             'tca_ros.cli.g': {'tca_ros.ros.h', 'tca_ros.model.i'}}
+             'tca_ros.cli.g': {'tca_ros.ros.h', 'tca_ros.model.i'},
+             'tca_ros.model.j': {'tca_ros.params.k'},
+             'tca_ros.params.l': {'tca_ros.model.m', 'tca_ros.records.n'}}
     assert layer_violations(graph) == ['tca_ros.model.a -> tca_ros.calibration.b',
+                                       'tca_ros.model.j -> tca_ros.params.k',
+                                       'tca_ros.params.l -> tca_ros.records.n',
                                        'tca_ros.ros.e -> tca_ros.cli.f',
                                        'tca_ros.toolkit.c -> tca_ros.records.d']
+
+
+# --- the physics reads and writes no files (issue 26): that is tca_ros.params's job ---
+PHYSICS = pathlib.Path(__file__).resolve().parents[1] / 'tca_ros'
+#: Modules whose import means files or the environment: file formats, paths, the OS.
+FILE_MODULES = {'os', 'io', 'pathlib', 'shutil', 'tempfile', 'glob', 'yaml', 'json', 'csv',
+                'pickle', 'shelve', 'sqlite3', 'h5py', 'mcap', 'rosbag2_py'}
+#: Calls that read or write files: the builtin open, numpy's and pandas' readers/writers.
+FILE_CALLS = {'load', 'save', 'savez', 'savez_compressed', 'loadtxt', 'savetxt', 'genfromtxt',
+              'fromfile', 'memmap', 'read_csv', 'read_parquet', 'read_pickle'}
+ARRAY_MODULES = {'np', 'numpy', 'pd', 'pandas'}
+
+
+def _file_call(func):
+    """Return the name of a file-reading or -writing call, or ''."""
+    if isinstance(func, ast.Name):
+        return func.id if func.id == 'open' else ''
+    if not isinstance(func, ast.Attribute):
+        return ''
+    if func.attr in ('tofile', 'to_csv', 'to_pickle', 'to_parquet'):
+        return func.attr
+    receiver = func.value.id if isinstance(func.value, ast.Name) else ''
+    return func.attr if receiver in ARRAY_MODULES and func.attr in FILE_CALLS else ''
+
+
+def file_io_uses(source, name='<source>'):
+    """Return 'name:line: what' for each file-I/O import or call in Python ``source``."""
+    found = []
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.Import):
+            mods = [a.name for a in node.names]
+        elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+            mods = [node.module]
+        elif isinstance(node, ast.Call):
+            called = _file_call(node.func)
+            if called:
+                found.append((node.lineno, f'calls {called}()'))
+            continue
+        else:
+            continue
+        found += [(node.lineno, f'imports {m}') for m in mods if m.split('.')[0] in FILE_MODULES]
+    return [f'{name}:{line}: {what}' for line, what in sorted(found)]
+
+
+def test_the_physics_does_no_file_io():
+    uses = []
+    for package in ('rod', 'model'):
+        for path in sorted((PHYSICS / package).glob('*.py')):
+            uses += file_io_uses(path.read_text(), f'{package}/{path.name}')
+    assert uses == []
+
+
+def test_the_file_io_rule_can_fail():
+    source = ('import os\nimport yaml\nfrom os.path import join\nimport numpy as np\n'
+              'import math\n'
+              'def f(p):\n    np.savez(p, a=1)\n    with open(p) as fh:\n        return fh\n'
+              'def g(p, store):\n    import pathlib\n    store.load(p)\n'
+              '    return math.sqrt(np.load(p).sum())\n')
+    assert file_io_uses(source) == [
+        '<source>:1: imports os', '<source>:2: imports yaml', '<source>:3: imports os.path',
+        '<source>:7: calls savez()', '<source>:8: calls open()',
+        '<source>:11: imports pathlib', '<source>:13: calls load()']

@@ -12,10 +12,12 @@ import pytest
 
 from tca_ros.cli.main import main
 from tca_ros.model.dynamics import TcaSimulator
-from tca_ros.model.params import dump_params, GRAVITY, with_effects
+from tca_ros.model.params_schema import GRAVITY
 from tca_ros.model.resistance import power_from_voltage
 from tca_ros.model.rod_table import TABLE_TEMP_BELOW, TABLE_TEMP_STEP
+from tca_ros.model.tca_params import with_effects
 from tca_ros.model.thermal import thermal_conductance, thermal_time_constant
+from tca_ros.params.files import dump_params
 from tca_ros.toolkit.linearize import linearize, OperatingPointError
 
 P0 = 1.0  # W, operating power: 100 degC on the free-stroke TCA

@@ -10,8 +10,9 @@ import math
 import pytest
 
 from tca_ros.model.dynamics import TcaSimulator
-from tca_ros.model.params import from_flat_dict, ParameterError
+from tca_ros.model.params_schema import ParameterError
 from tca_ros.model.rod_model import RodKinetostatics, RodTableError
+from tca_ros.model.tca_params import from_flat_dict
 
 
 def _params(**dotted):

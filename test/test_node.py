@@ -9,8 +9,8 @@ from std_srvs.srv import Trigger
 from visualization_msgs.msg import Marker
 
 from tca_ros.model.dynamics import TcaSimulator
-from tca_ros.model.params import load_params
 from tca_ros.model.thermal import thermal_conductance, thermal_time_constant
+from tca_ros.params.files import load_params
 
 from test_node_harness import Probe, start_tca  # noqa: I100
 

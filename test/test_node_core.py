@@ -13,9 +13,12 @@ import types
 
 import pytest
 
-from tca_ros.model.params import from_flat_dict, load_params, SCHEMA, to_flat_dict
-from tca_ros.ros import node_core
-from tca_ros.ros.node_core import CATCH_UP_CHUNK, MAX_CATCH_UP_WALL, NodeCore, NS
+from tca_ros.model.params_schema import SCHEMA
+from tca_ros.model.tca_params import from_flat_dict, to_flat_dict
+from tca_ros.params.files import load_params
+from tca_ros.ros import node_clocks
+from tca_ros.ros.node_clocks import CATCH_UP_CHUNK, MAX_CATCH_UP_WALL, NS
+from tca_ros.ros.node_core import NodeCore
 from tca_ros.ros.node_episode import Log, MuscleState
 from tca_ros.ros.node_schema import build_simulator, NODE_SCHEMA, validate_node_values
 
@@ -23,8 +26,8 @@ NODE_DEFAULTS = {s.name: s.default for s in NODE_SCHEMA}
 
 
 def test_the_core_imports_no_rclpy_and_no_ros_message():
-    check = ('import sys, tca_ros.ros.node_core, tca_ros.ros.node_episode, '
-             'tca_ros.ros.node_schema, '
+    check = ('import sys, tca_ros.ros.node_core, tca_ros.ros.node_clocks, '
+             'tca_ros.ros.node_episode, tca_ros.ros.node_schema, '
              'tca_ros.ros.node_tables; print(sorted(m for m in sys.modules if m.split(".")[0] in '
              '("rclpy", "std_msgs", "sensor_msgs", "diagnostic_msgs", "builtin_interfaces")))')
     out = subprocess.run([sys.executable, '-c', check], capture_output=True, text=True,
@@ -244,7 +247,7 @@ def _lockstep(commands, **cfg):
     assert rig.ticks == [] and rig.core.muscle_state().waiting == 'a controller (lockstep)'
     rig.core.clock_tick(lambda: True)
     for value in commands:
-        assert rig.core.awaiting
+        assert rig.core.own_clock.awaiting
         rig.core.power_command(value)
     return rig
 
@@ -261,7 +264,7 @@ def test_lockstep_publishes_one_tick_per_command_and_is_repeatable():
 
 def test_lockstep_repeats_the_first_state_then_advances_after_the_timeout(monkeypatch):
     wall = [100.0]
-    monkeypatch.setattr(node_core, 'time', types.SimpleNamespace(monotonic=lambda: wall[0]))
+    monkeypatch.setattr(node_clocks, 'time', types.SimpleNamespace(monotonic=lambda: wall[0]))
     rig = _lockstep([], lockstep_timeout=1.0)
     assert len(rig.ticks) == 1
     rig.core.clock_tick(lambda: True)
@@ -299,7 +302,7 @@ def test_a_physics_rate_the_machine_cannot_keep_up_with_pauses_the_stepping(rig,
     for a whole budget too, and 43 of 400 requests waited past 3 s behind them.
     """
     wall = [100.0]  # s, the node's monotonic clock
-    monkeypatch.setattr(node_core, 'time', types.SimpleNamespace(monotonic=lambda: wall[0]))
+    monkeypatch.setattr(node_clocks, 'time', types.SimpleNamespace(monotonic=lambda: wall[0]))
     ep = rig.core.episode
     real_step = ep.sim.step
     steps = []
@@ -349,7 +352,7 @@ def test_the_own_clock_holds_while_a_table_row_is_built():
     rig.core.episode.rows = types.SimpleNamespace(missing=lambda temperatures: 55.0)
     rig.core.power_command(1.0)
     assert len(rig.ticks) == 4  # the command came, the tick waits for the row
-    assert not rig.core.awaiting
+    assert not rig.core.own_clock.awaiting
     rig.core.episode.rows = types.SimpleNamespace(missing=lambda temperatures: None)
     rig.core.clock_tick(lambda: True)
     assert len(rig.ticks) == 5 and rig.ticks[-1][0] == 40_000_000

@@ -203,7 +203,8 @@ def test_stale_until_the_clock_starts_in_a_namespace(tmp_path, probe):
 
 def test_a_physics_failure_is_an_error_until_reset():
     from rclpy.parameter import Parameter
-    from tca_ros.model.params import load_params, to_flat_dict
+    from tca_ros.model.tca_params import to_flat_dict
+    from tca_ros.params.files import load_params
     from tca_ros.ros.node import TcaSimNode
     ensure_rclpy()
     flat = to_flat_dict(load_params(str(CONFIG)))

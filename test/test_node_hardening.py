@@ -154,7 +154,8 @@ class _Log:
 @pytest.fixture
 def tca():
     from rclpy.parameter import Parameter
-    from tca_ros.model.params import load_params, to_flat_dict
+    from tca_ros.model.tca_params import to_flat_dict
+    from tca_ros.params.files import load_params
     from tca_ros.ros.node import TcaSimNode
     ensure_rclpy()
     flat = to_flat_dict(load_params(str(CONFIG)))

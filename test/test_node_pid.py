@@ -2,7 +2,7 @@
 import pytest
 
 from tca_ros.model.dynamics import TcaSimulator
-from tca_ros.model.params import load_params
+from tca_ros.params.files import load_params
 from tca_ros.ros.pid_node import checked_value, PidController
 
 from test_node_harness import module_command, NodeProcess  # noqa: I100

@@ -102,7 +102,7 @@ def recording(tmp_path_factory):
 
 
 def test_the_bag_keeps_the_load_step_and_the_config_load_before_it(recording):
-    from tca_ros.model.params import load_params
+    from tca_ros.params.files import load_params
     from tca_ros.records.data import read_bag_record
     bag, _ = recording
     rec = read_bag_record(str(bag), tca=str(CONFIG), mass_kg=0.03)

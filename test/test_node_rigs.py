@@ -9,9 +9,9 @@ from sensor_msgs.msg import JointState, Temperature
 from std_msgs.msg import Float64
 
 from tca_ros.model.kinetostatic_models import make_kinetostatic_model
-from tca_ros.model.params import load_params
 from tca_ros.model.rig_statics import antagonistic_rest_angle, isometric_force
 from tca_ros.model.rig_statics import spring_rest_state
+from tca_ros.params.files import load_params
 
 from test_node_harness import Probe, stamp_seconds, start_tca  # noqa: I100
 

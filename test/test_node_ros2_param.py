@@ -71,7 +71,7 @@ def probe(tca):
 
 
 def test_every_parameter_keeps_its_declared_type_from_start_up(probe):
-    from tca_ros.model.params import SCHEMA
+    from tca_ros.model.params_schema import SCHEMA
     from tca_ros.ros.node_params import NODE_SCHEMA
     kinds = {bool: ParameterType.PARAMETER_BOOL, int: ParameterType.PARAMETER_INTEGER,
              float: ParameterType.PARAMETER_DOUBLE, str: ParameterType.PARAMETER_STRING,

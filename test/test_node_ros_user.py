@@ -15,7 +15,7 @@ from rcl_interfaces.srv import DescribeParameters, GetParameters
 from sensor_msgs.msg import JointState, Temperature
 from visualization_msgs.msg import Marker
 
-from tca_ros.model.params import check_value, ParameterError, SPECS
+from tca_ros.model.params_schema import check_value, ParameterError, SPECS
 from tca_ros.ros.node_params import namespaced_name, NODE_SPECS, numbers_as_declared_types
 
 from test_node_harness import (module_command, NodeProcess, Probe, ROOT,  # noqa: I100

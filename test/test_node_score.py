@@ -11,7 +11,7 @@ import pytest
 from tca_ros.cli.common import InputError
 from tca_ros.cli.main import main as cli_main
 from tca_ros.cli.score_ros import score_over_ros
-from tca_ros.model.params import load_params
+from tca_ros.params.files import load_params
 from tca_ros.ros.node_task import parse_record, parse_task, task_message
 from tca_ros.ros.pid_node import PARAMETERS, PidController
 from tca_ros.toolkit.scoring import law_controller, run_tasks

@@ -99,7 +99,7 @@ def test_rod_model_node_settles_at_the_rod_equilibrium(tmp_path):
     from sensor_msgs.msg import JointState
 
     from tca_ros.model.dynamics import TcaSimulator
-    from tca_ros.model.params import load_params
+    from tca_ros.params.files import load_params
 
     params = load_params('free_stroke', model='rod')
     sim = TcaSimulator(params, dt=1e-3)

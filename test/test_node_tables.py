@@ -1,11 +1,17 @@
 """The node's table rows built off the executor (tca_ros.ros.node_tables); no ROS needed."""
+import os
+import pathlib
 import threading
 import time
 
+import numpy as np
 import pytest
 
-from tca_ros.model.params import load_params
-from tca_ros.ros.node_tables import muscle_temperatures, table_rows, TableRows
+from tca_ros.model.conical_table import build_row, cached_conical_model
+from tca_ros.params.files import load_params
+from tca_ros.ros.node_tables import muscle_temperatures, RowProcess, table_rows, TableRows
+
+CONICAL = pathlib.Path(__file__).resolve().parents[1] / 'config' / 'conical.yaml'
 
 
 class SlowTable:
@@ -110,3 +116,54 @@ def test_muscle_temperatures_of_a_tca_and_of_the_pair(free_stroke):
                             rig=replace(free_stroke.rig, mode='antagonistic')), dt=1e-3)
     pair.reset()
     assert len(muscle_temperatures(pair)) == 4
+
+
+def test_a_conical_row_is_solved_in_a_child_process_as_it_would_be_here(
+        tmp_path, monkeypatch):
+    """RowProcess: the rod solves of a row run out of the node's process, same result."""
+    params = load_params(CONICAL)
+    monkeypatch.setenv('TCA_ROS_CACHE', str(tmp_path / 'child'))
+    child = RowProcess(params)
+    try:
+        row = child.build(3)
+        pid = child._proc.pid
+        assert pid != os.getpid() and child._proc.poll() is None
+    finally:
+        child.close()
+    assert child._proc.poll() is not None  # close() ended it
+    assert list((tmp_path / 'child').glob('conical_*_003.npz'))  # it wrote the cache
+    monkeypatch.setenv('TCA_ROS_CACHE', str(tmp_path / 'here'))
+    here = build_row(params, row.temperature,
+                     cached_conical_model(params).table.natural_drop)
+    for name, value in here.__dict__.items():
+        assert np.array_equal(getattr(row, name), value), name
+
+
+def test_the_worker_takes_rows_from_the_builder_and_ends_it_when_complete():
+    class Builder:
+        closed = False
+
+        def build(self, i):
+            return ('row', i)
+
+        def close(self):
+            Builder.closed = True
+
+    class Table(SlowTable):
+        def __init__(self):
+            super().__init__()
+            self.inserted = {}
+
+        def cached_row(self, i):
+            return self.inserted.get(i)
+
+        def insert(self, i, row):
+            self.inserted[i] = row
+
+    table = Table()
+    rows = TableRows(table, Builder)
+    rows.start([25.0])  # rows 1-4 here, the other 22 from the builder
+    assert _wait(lambda: rows.complete)
+    assert sorted(table.inserted) == [i for i in range(26) if i not in (1, 2, 3, 4)]
+    assert table.inserted[20] == ('row', 20)
+    assert _wait(lambda: Builder.closed)

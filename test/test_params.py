@@ -3,8 +3,10 @@ import math
 
 import pytest
 
-from tca_ros.model.params import (dump_params, load_params, ParameterError, SCHEMA,
-                                  shipped_configs, to_flat_dict)
+from tca_ros.model.params_schema import ParameterError, SCHEMA
+from tca_ros.model.tca_params import to_flat_dict
+from tca_ros.params.config_search import shipped_configs
+from tca_ros.params.files import dump_params, load_params
 
 
 def test_shipped_configs_load_and_match_tables(free_stroke, self_coiled):

@@ -10,7 +10,8 @@ import random
 import pytest
 
 from tca_ros.model.dynamics import StabilityError, TcaSimulator
-from tca_ros.model.params import from_flat_dict, ParameterError, SCHEMA
+from tca_ros.model.params_schema import ParameterError, SCHEMA
+from tca_ros.model.tca_params import from_flat_dict
 
 TINY = 5e-324  # the smallest subnormal double: inside every range that starts at 0
 MELT = 250.0  # degC, the node's default melt_temperature (the episode ends there)
@@ -191,3 +192,41 @@ def test_random_in_range_sets_are_refused_in_one_line_or_stay_finite():
     # random sets are refused at load since the physical limits of D17)
     assert counts['finite'] >= 60, counts
     assert counts['thread_breaks'] <= 12, counts
+
+
+# --- the schema types YAML 1.1 text as PyYAML does, without reading YAML ---
+YAML11_SCALARS = ['1', '-1', '+1', '0', '07', '08', '0x1F', '0b101', '0o7', '1_000', '1:30',
+                  '1.', '1.5', '-.5', '.5', '+.5', '1.e-9', '1.0e-9', '1.0e9', '1e-9', '1E+3',
+                  '.5e-3', '-.5e-3', '+1.0E+3', '1:30.5', '.inf', '-.Inf', '.NaN', '.nan',
+                  '1_0.5', 'true', 'yes', '~', '', 'abc', '1 2', '2002-12-14', '0.', '00']
+YAML11_LISTS = ['[1,2.0]', '[1, 2.0,]', '[ 1 , 2.0 ]', '[1e-6, -6.7e-5, 1.0]',
+                '[3.54e-6, -6.705e-5, 1]', '[1, 2]', '[1.0,2.0]', '[0x1F, 1.5]',
+                '[1_000, .5]', '[+1, -.5]', '[1:30, 1.0]', '[0o7, 1.0]', '[1, 1.e+3]',
+                "[1, '2.0']", '[1, 2.0] # c', '[1, 2.0]# c', '[1, 2.0, ~]', '[1, .inf]',
+                '[1,,2.0]', '[]', '[[1, 2.0]]', '[1, 2.0', "['a,b', 1, 2.0]", '[1,\n 2.0]']
+
+
+def test_yaml11_number_type_agrees_with_pyyaml():
+    import yaml
+    from tca_ros.model.params_schema import yaml11_number_type
+
+    def pyyaml_type(text):
+        value = yaml.safe_load(text)
+        return type(value) if type(value) in (int, float) else None
+    assert {t: yaml11_number_type(t) for t in YAML11_SCALARS} == \
+        {t: pyyaml_type(t) for t in YAML11_SCALARS}
+
+
+def test_the_mixed_list_hint_agrees_with_pyyaml():
+    import yaml
+    from tca_ros.model.params_schema import _yaml11_hint
+
+    def pyyaml_mixed(text):
+        try:
+            items = yaml.safe_load(text)
+        except yaml.YAMLError:
+            return False
+        return isinstance(items, list) and {type(v) for v in items} == {int, float}
+    found = {t: 'mixing integers and floats' in _yaml11_hint(t) for t in YAML11_LISTS}
+    assert found == {t: pyyaml_mixed(t) for t in YAML11_LISTS}
+    assert sum(found.values()) >= 8  # the corpus holds both answers

@@ -19,11 +19,13 @@ from tca_ros.model.dynamics import TcaSimulator
 from tca_ros.model.kinetostatic_models import make_kinetostatic_model
 from tca_ros.model.limits import MELT_TEMPERATURE_DEGC, ThreadBreakError
 from tca_ros.model.limits import touching_pitch_angle
-from tca_ros.model.params import GRAVITY, load_params, ParameterError, shipped_configs, SPECS
+from tca_ros.model.params_schema import GRAVITY, ParameterError, SPECS
 from tca_ros.model.rod_model import cached_rod_model, rod_statics_sweep, RodTableError
 from tca_ros.model.rod_model import solution_elongation
 from tca_ros.model.simulation import static_displacement
 from tca_ros.model.thermal import thermal_conductance
+from tca_ros.params.config_search import shipped_configs
+from tca_ros.params.files import load_params
 
 SIXTY_GRAMS = 0.06 * GRAVITY  # N
 

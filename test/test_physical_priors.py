@@ -5,6 +5,7 @@ dynamics (18) at 500 Hz with a curvature of the stroke-temperature characteristi
 and an actuation lag the priors do not know, logged at 5 Hz with coloured noise and
 encoder quantisation (realistic.bench_record).
 """
+import dataclasses
 import math
 
 import numpy as np
@@ -12,13 +13,16 @@ import pytest
 
 from tca_ros.calibration.calibration import calibrate
 from tca_ros.calibration.calibration_report import format_summary
+from tca_ros.calibration.conditions import in_environment
 from tca_ros.calibration.physical_priors import physical_reference, PLAUSIBLE_RATIO
 from tca_ros.calibration.predictions import full_nrmse
 from tca_ros.cli.main import main
-from tca_ros.model.heat_transfer import natural_convection_coefficient
+from tca_ros.model.heat_transfer import natural_convection_coefficient, radiation_coefficient, \
+    REFERENCE_RISE_K, still_air_loss_exponent
 from tca_ros.model.muscle import describe_muscle, MuscleSpec
-from tca_ros.model.params import load_params
 from tca_ros.model.thermal import heat_capacity
+from tca_ros.params.files import load_params
+from tca_ros.params.thread_presets import load_thread_presets
 from tca_ros.synthetic.realistic import bench_record
 
 SALP = MuscleSpec(thread='nylon66_silver', thread_diameter=0.45e-3, coil='mandrel',
@@ -45,12 +49,14 @@ def test_the_reference_heat_capacity_is_the_threads_mass_times_cp():
 
 @pytest.fixture(scope='module')
 def plant():
-    """Return (start params, truth, records at 1 and 2 W, record at 3 W) of a lagging muscle."""
-    start = describe_muscle(SALP).params
+    """Return (start params, truth, records at 0.3-0.6 W, one at 0.8 W) of a lagging muscle.
+
+    Its heat loss grows with the rise as a thread's in still air does (describe_muscle).
+    """
+    start = describe_muscle(SALP, load_thread_presets()).params
     c2, _, c0 = start.fiber.gamma_coefficients
-    truth = start.with_values(**{'effects.second_thermal_lag': 4.0,
-                                 'fiber.gamma_coefficients': [c2, -2.0 * c2 * -20.0, c0],
-                                 'fiber.untwist_gain': 0.8})
+    truth = start.with_values(**{'effects.second_thermal_lag': 4.0, 'fiber.untwist_gain': 0.8,
+                                 'fiber.gamma_coefficients': [c2, -2.0 * c2 * -20.0, c0]})
     rng = np.random.default_rng(11)
     train = [bench_record(truth, w, 0.02, rng, drift=0.0) for w in (0.3, 0.45, 0.6)]
     test = [bench_record(truth, 0.8, 0.02, rng, drift=0.0)]
@@ -88,7 +94,7 @@ def test_a_shifted_or_implausible_heat_capacity_is_marked(factor, flag):
     # plants whose heat capacity is 1, 4 and 7 x the thread's m_t c_p: the tight prior
     # (x/÷ 1.3) holds the value back, but a shift beyond 2 prior spreads is a finding
     # and one past the physical factor of 2 is implausible
-    start = describe_muscle(SALP).params
+    start = describe_muscle(SALP, load_thread_presets()).params
     truth = start.with_values(**{'fiber.specific_heat': factor * start.fiber.specific_heat})
     rng = np.random.default_rng(2)
     records = [bench_record(truth, w, 0.02, rng, drift=0.0) for w in (0.3, 0.6)]
@@ -109,7 +115,7 @@ def test_a_shifted_or_implausible_heat_capacity_is_marked(factor, flag):
 
 
 def test_a_load_above_the_assumed_strength_is_a_warning_not_a_refusal():
-    start = describe_muscle(SALP).params
+    start = describe_muscle(SALP, load_thread_presets()).params
     assert start.fiber.break_force < 0.4 * 9.81
     truth = start.with_values(**{'fiber.break_force': 6.0})
     rng = np.random.default_rng(0)
@@ -143,7 +149,7 @@ def test_a_measured_description_reveals_a_power_loss_that_a_guessed_one_absorbs(
     # measured (1-5 %), the heat loss, gain and delivered power cannot all take the loss:
     # the calibration says which left the description and names power_loss among the
     # effects it can stand for. Described as guessed (x/÷ 3), the same loss is absorbed.
-    start = describe_muscle(SALP).params
+    start = describe_muscle(SALP, load_thread_presets()).params
     truth = start.with_values(**{'effects.power_loss_fraction': 0.25})
     rng = np.random.default_rng(3)
     records = [bench_record(truth, w, 0.02, rng, drift=0.0) for w in (0.3, 0.45, 0.6)]
@@ -183,3 +189,51 @@ def test_the_next_experiment_separates_rivals_the_records_confuse():
         # the experiment tells the rivals apart several times better than the records do
         assert e.separates and e.difference > 3.0 * seen, e
     assert 'next experiment for the' in format_summary(cal)
+
+
+def test_still_airs_loss_law_is_a_power_of_the_rise_over_the_working_range():
+    # the exponent is taken from the rises 25 and 100 K; at 50 and 150 K the power
+    # law must still give Morgan's correlation plus radiation within 3 %
+    d, ambient, eps = 0.45e-3, 22.0, 0.5
+    n = still_air_loss_exponent(d, ambient, eps)
+    assert 0.1 < n < 0.25
+
+    def h(dt):
+        return natural_convection_coefficient(d, dt, ambient) \
+            + radiation_coefficient(eps, dt, ambient)
+    for dt in (50.0, 150.0):
+        assert h(25.0) * (dt / 25.0) ** n == pytest.approx(h(dt), rel=0.03)
+
+
+def test_the_description_states_still_airs_loss_law_and_a_flow_drops_it():
+    start = describe_muscle(SALP, load_thread_presets()).params
+    n = still_air_loss_exponent(SALP.thread_diameter, SALP.ambient_degc)
+    assert start.effects.convection_exponent == pytest.approx(n)
+    assert start.effects.convection_reference_dt == REFERENCE_RISE_K
+    record = bench_record(start, 0.3, 0.02, np.random.default_rng(0), drift=0.0,
+                          duration=30.0)
+    assert in_environment(start, record, {}).effects.convection_exponent == n
+    fan = dataclasses.replace(record, meta={**record.meta, 'environment': 'forced_air'})
+    blown = in_environment(start, fan, {'forced_air': 2.5})
+    assert blown.effects.convection_exponent == 0.0
+    assert blown.thermal.convection_coefficient == pytest.approx(
+        2.5 * start.thermal.convection_coefficient)
+    cal = calibrate([record], start, model='cst', check=False, max_nfev=2)
+    assert cal.params.effects.convection_exponent == n  # the description's, not fitted
+
+
+def test_a_muscle_in_still_air_is_predicted_at_another_power_better_with_the_loss_law():
+    # the plant's heat loss grows with the rise as still air's does; calibrated on
+    # 0.3 and 0.45 W, it predicts 0.8 W better from the description that states the
+    # law than from the paper's constant h
+    start = describe_muscle(SALP, load_thread_presets()).params
+    truth = start.with_values(**{'fiber.untwist_gain': 0.8})
+    rng = np.random.default_rng(5)
+    train = [bench_record(truth, w, 0.02, rng, drift=0.0) for w in (0.3, 0.45)]
+    test = [bench_record(truth, 0.8, 0.02, rng, drift=0.0)]
+    law = calibrate(train, start, model='cst', check=False)
+    constant = calibrate(train, start.with_values(**{'effects.convection_exponent': 0.0}),
+                         model='cst', check=False)
+    ours = full_nrmse(law.params, test, 'cst')[0]
+    without = full_nrmse(constant.params, test, 'cst')[0]
+    assert ours < 0.8 * without, (ours, without)

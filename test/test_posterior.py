@@ -17,7 +17,8 @@ from tca_ros.calibration.posterior import BAND_LABEL, check_posterior, draw_coor
     write_line
 from tca_ros.cli.compare import simulate_record
 from tca_ros.cli.main import main
-from tca_ros.model.params import dump_params, load_params, to_flat_dict
+from tca_ros.model.tca_params import to_flat_dict
+from tca_ros.params.files import dump_params, load_params
 from tca_ros.records.data import write_csv_record
 from tca_ros.synthetic.realistic import realistic_set
 

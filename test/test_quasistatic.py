@@ -2,11 +2,11 @@
 import numpy as np
 import pytest
 
-from tca_ros.model.params import load_params
 from tca_ros.model.quasistatic import QuasiStaticUnsupported, simulate_quasistatic
 from tca_ros.model.quasistatic_signals import delayed_input, first_order_response
 from tca_ros.model.simulation import simulate
 from tca_ros.model.static_maps import ExactHelixStatics, static_map
+from tca_ros.params.files import load_params
 
 
 def _step_profile(rate, power=1.0):

@@ -2,8 +2,8 @@
 
 Each effect at two magnitudes against the full central-difference dynamics (18) at
 1 kHz (20 g on the free-stroke TCA, a power step and a ramp, sampled at 5 Hz as in
-test_quasistatic.py), and the relations of quasistatic_effects.py against closed
-forms and an adaptive ODE solver.
+test_quasistatic.py), and the relations of quasistatic_effects.py (on eq. (1) of
+thermal.py) against closed forms and an adaptive ODE solver.
 """
 import math
 
@@ -13,10 +13,10 @@ from scipy.integrate import solve_ivp
 
 from tca_ros.model import effects as fx
 from tca_ros.model import quasistatic_effects as qe
-from tca_ros.model.params import load_params
 from tca_ros.model.quasistatic import simulate_quasistatic
 from tca_ros.model.simulation import simulate
-from tca_ros.model.thermal import step_response
+from tca_ros.model.thermal import heat_loss, heat_loss_slope, HeatBalance, step_response
+from tca_ros.params.files import load_params
 
 MASS = 0.02  # kg
 LOAD = MASS * 9.81  # N
@@ -126,24 +126,26 @@ def test_every_catalogue_effect_is_accepted():
                                     {'effects.convection_exponent': 0.25},
                                     {'effects.emissivity': 0.5, 'effects.convection_exponent': 1.0,
                                      'effects.convection_reference_dt': 20.0}])
-def test_heat_loss_is_the_loss_of_the_stepper(values):
+def test_heat_loss_is_convection_and_radiation(values):
     p = load_params('free_stroke').with_values(**values)
-    balance = qe.HeatBalance.of(p)
+    balance = HeatBalance.of(p)
     e = p.effects
+    area = 2.0 * math.pi * p.fiber.radius * p.fiber.length  # m^2, A_0
     for temp in (-10.0, 24.0, 25.0, 25.5, 80.0, 200.0):
-        # thermal_step.ThermalStepper.rate: h c_s A_0 (T - T_inf) factor + radiation
-        expected = balance.conductance * (temp - balance.ambient) * fx.convection_factor(
-            temp, balance.ambient, e) + fx.radiation_loss(
-                temp, balance.ambient, 2.0 * math.pi * p.fiber.radius * p.fiber.length, e)
-        assert qe.heat_loss(temp, balance) == pytest.approx(expected, rel=1e-12, abs=1e-15)
+        # h c_s A_0 (T - T_inf) (|T - T_inf| / dT_ref)^n + eps sigma A_0 (T^4 - T_inf^4)
+        rise = temp - 25.0
+        expected = balance.conductance * rise * (abs(rise) / e.convection_reference_dt) ** (
+            e.convection_exponent) + e.emissivity * 5.670374419e-8 * area * (
+                (temp + 273.15) ** 4 - (25.0 + 273.15) ** 4)
+        assert heat_loss(temp, balance) == pytest.approx(expected, rel=1e-12, abs=1e-15)
     for temp in (30.0, 90.0, 180.0):  # the slope against central differences (0.01 K)
-        numeric = (qe.heat_loss(temp + 0.01, balance) - qe.heat_loss(temp - 0.01, balance)) / 0.02
-        assert qe.heat_loss_slope(temp, balance) == pytest.approx(numeric, rel=1e-5)
+        numeric = (heat_loss(temp + 0.01, balance) - heat_loss(temp - 0.01, balance)) / 0.02
+        assert heat_loss_slope(temp, balance) == pytest.approx(numeric, rel=1e-5)
 
 
 def test_linear_heat_balance_gives_the_closed_form_step():
     p = load_params('free_stroke')
-    balance = qe.HeatBalance.of(p)
+    balance = HeatBalance.of(p)
     assert balance.linear
     t = np.arange(0.0, 20.0, 0.2)
     temp = qe.nonlinear_thermal_response(t, np.ones_like(t), balance)
@@ -156,18 +158,18 @@ def test_linear_heat_balance_gives_the_closed_form_step():
     # steep: h (dT / 2 K)^1, 20x the linear slope at 40 K: substeps needed at 0.5 s
     {'effects.convection_exponent': 1.0, 'effects.convection_reference_dt': 2.0}])
 def test_nonlinear_heat_balance_matches_an_adaptive_solver(values):
-    balance = qe.HeatBalance.of(load_params('free_stroke').with_values(**values))
+    balance = HeatBalance.of(load_params('free_stroke').with_values(**values))
     t = np.arange(0.0, 20.0, 0.5)
     heating = np.where(t < 10.0, 1.0, 0.2)
     substeps = qe.rk4_substeps(np.diff(t), heating[:-1], balance)
-    rate = qe.heat_loss_slope(qe.equilibrium_bound(1.0, balance), balance) / balance.capacity
+    rate = heat_loss_slope(qe.equilibrium_bound(1.0, balance), balance) / balance.capacity
     assert np.all(0.5 / substeps * rate <= qe.RK4_STEP_RATE + 1e-12)
     assert (substeps.max() > 1) == ('effects.convection_exponent' in values)  # 1 or 11
     temp = qe.nonlinear_thermal_response(t, heating, balance)
     reference = [balance.ambient]
     for k in range(t.size - 1):
         def rate_of_change(_, y, power=heating[k]):
-            return [(power - qe.heat_loss(y[0], balance)) / balance.capacity]
+            return [(power - heat_loss(y[0], balance)) / balance.capacity]
         sol = solve_ivp(rate_of_change, (t[k], t[k + 1]), [reference[-1]], method='DOP853',
                         rtol=1e-12, atol=1e-12)
         reference.append(sol.y[0, -1])
@@ -221,7 +223,8 @@ def test_a_fiber_in_vacuum_settles_where_radiation_carries_the_power():
     voltage = simulate_quasistatic(p, t, heated, model='cst', supply='voltage')
     assert np.all(np.isfinite(voltage.temperature)) and voltage.temperature[-1] > 100.0
     # 0.3 W radiated: eps sigma A_0 ((T + 273.15)^4 - (T_inf + 273.15)^4) = 0.3 W
-    balance = qe.HeatBalance.of(p)
-    kelvin = (0.3 / balance.radiation + (25.0 + 273.15) ** 4) ** 0.25
+    balance = HeatBalance.of(p)
+    radiation = balance.emissivity * fx.STEFAN_BOLTZMANN * balance.area  # W/K^4
+    kelvin = (0.3 / radiation + (25.0 + 273.15) ** 4) ** 0.25
     power = simulate_quasistatic(p, t, heated, model='cst')
     assert power.temperature[-1] == pytest.approx(kelvin - 273.15, abs=1e-6)

@@ -13,10 +13,11 @@ import numpy as np
 import pytest
 
 from tca_ros.model import effects as fx
-from tca_ros.model.params import EffectParams, load_params
 from tca_ros.model.rigs import AntagonisticPair
 from tca_ros.model.rod_table import RodTableError
+from tca_ros.model.tca_params import EffectParams
 from tca_ros.model.thermal import heat_capacity, thermal_conductance
+from tca_ros.params.files import load_params
 
 RTOL = 1e-12  # relative agreement demanded of every compared quantity
 

@@ -2,8 +2,8 @@
 import numpy as np
 import pytest
 
-from tca_ros.model.params import load_params
 from tca_ros.model.rig_simulation import simulate_rig
+from tca_ros.params.files import load_params
 from tca_ros.records.data import DataError, read_record, Record, write_csv_record
 
 
@@ -32,3 +32,18 @@ def test_force_out_of_range_names_row_and_column(tmp_path):
     path.write_text('\n'.join(lines) + '\n')
     with pytest.raises(DataError, match=r"row 12, column 'force': 2e\+06 N is out of range"):
         read_record(str(path))
+
+
+def test_a_written_record_keeps_its_conditions(tmp_path):
+    # rig, environment, pretension: header entries a writer must not drop
+    t = np.arange(40) / 5.0
+    meta = {'tca': 'free_stroke', 'mass_kg': 0.01, 'sample_rate_hz': 5.0,
+            'environment': 'forced_air', 'rig': 'spring', 'spring_stiffness_n_per_m': 50.0}
+    record = Record(time=t, power=np.where(t > 2.0, 1.0, 0.0), load=np.full_like(t, 0.1),
+                    displacement=np.zeros_like(t), meta=meta, source='x')
+    path = tmp_path / 'run.csv'
+    write_csv_record(record, str(path), comments=['environment: water', 'synthetic: yes'])
+    back = read_record(str(path)).meta
+    assert back['rig'] == 'spring' and float(back['spring_stiffness_n_per_m']) == 50.0
+    assert back['environment'] == 'water'  # a comment of that key takes its place
+    assert path.read_text().count('environment:') == 1

@@ -6,12 +6,13 @@ import pytest
 
 from tca_ros.model.dynamics import StabilityError, TcaSimulator
 from tca_ros.model.kinetostatic_models import make_kinetostatic_model
-from tca_ros.model.params import load_params, ParameterError
+from tca_ros.model.params_schema import ParameterError
 from tca_ros.model.rig_simulation import RIG_COLUMNS, simulate_rig
 from tca_ros.model.rig_statics import antagonistic_rest_angle, isometric_force
 from tca_ros.model.rig_statics import spring_rest_state
 from tca_ros.model.rigs import AntagonisticPair, HeldMuscle, make_rig, SpringLoadedMuscle
 from tca_ros.model.simulation import static_displacement
+from tca_ros.params.files import load_params
 
 # The rod model's dynamics reads a table of exact helices; the statics here solve the
 # exact helix itself. docs/rod.md measures the table within ~1e-4 of it: 1e-3 below.

@@ -6,9 +6,9 @@ import pytest
 
 from tca_ros.model.conical import conical_end_height, conical_shapes
 from tca_ros.model.kinetostatic_models import centreline, make_kinetostatic_model
-from tca_ros.model.params import load_params
 from tca_ros.model.rod_model import rod_statics_sweep, RodKinetostatics
 from tca_ros.model.rod_model import solution_elongation
+from tca_ros.params.files import load_params
 
 
 @pytest.fixture(scope='module')

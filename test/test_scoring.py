@@ -106,7 +106,7 @@ def test_score_warns_before_an_unreachable_task_and_each_row_names_its_limits(
         tmp_path, capsys, free_stroke):
     import io
     from tca_ros.cli.main import main
-    from tca_ros.model.params import dump_params
+    from tca_ros.params.files import dump_params
     config = tmp_path / 'lossy.yaml'
     dump_params(lossy(free_stroke, 5.0), str(config))
     argv = ['score', '--model', 'cst', '--tasks', 'step_up,ramp', '--duration', '4']

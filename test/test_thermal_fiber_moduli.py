@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from tca_ros.model import fiber, moduli, thermal
-from tca_ros.model.params import load_params
+from tca_ros.params.files import load_params
 
 
 def test_thermal_constants_match_table_ii(free_stroke):

@@ -10,10 +10,11 @@ import numpy as np
 import pytest
 
 from tca_ros.calibration.transfer import read_trained_range
-from tca_ros.calibration.validation import repeat_floor
+from tca_ros.calibration.validation import format_table, HeldOut, repeat_floor
 from tca_ros.cli.main import main
 from tca_ros.model.muscle import describe_muscle, MuscleSpec
-from tca_ros.model.params import dump_params
+from tca_ros.params.files import dump_params
+from tca_ros.params.thread_presets import load_thread_presets
 from tca_ros.records.data import write_csv_record
 from tca_ros.synthetic.realistic import bench_record
 
@@ -31,7 +32,7 @@ def run(argv):
 def files(tmp_path_factory):
     """Return (dir, start config, train paths, test paths) of a lagging muscle."""
     root = tmp_path_factory.mktemp('transfer')
-    start = describe_muscle(SPEC).params
+    start = describe_muscle(SPEC, load_thread_presets()).params
     c2, _, c0 = start.fiber.gamma_coefficients
     truth = start.with_values(**{'effects.second_thermal_lag': 4.0,
                                  'fiber.gamma_coefficients': [c2, 40.0 * c2, c0]})
@@ -96,11 +97,22 @@ def test_the_repeat_floor_is_the_mean_of_the_other_repeats():
     assert np.isnan(floors[3])
 
 
+def test_loco_medians_name_power_and_load_so_one_power_at_two_loads_gives_two_rows():
+    rows = [HeldOut('d/rec_1W_light.csv', (1.0, 0.2), 0.05, 0.20, 0.10),
+            HeldOut('d/rec_1W_heavy.csv', (1.0, 0.5), 0.09, 0.30, 0.12),
+            HeldOut('d/rec_2W.csv', (2.0, 0.2), 0.04, 0.25, 0.11)]
+    medians = [line for line in format_table(rows).splitlines() if line.startswith('median')]
+    labels = [line[:53].strip() for line in medians]
+    assert labels == ['median P=1 W, F=0.2 N', 'median P=1 W, F=0.5 N',
+                      'median P=2 W, F=0.2 N', 'median']
+    assert medians[1].split()[-3:] == ['9.0%', '30.0%', '12.0%']  # the heavy load's own row
+
+
 def test_an_air_flow_is_a_condition_with_its_own_heat_loss_scale():
     # a filmed muscle's time constant fell 2.8x with a fan: the same muscle at 0.4 and
     # 0.6 W in still air and at 0.8 W with 2.8x the heat loss, calibrated together
     from tca_ros.calibration.calibration import calibrate
-    start = describe_muscle(SPEC).params
+    start = describe_muscle(SPEC, load_thread_presets()).params
     fan = start.with_values(**{'thermal.convection_coefficient':
                                2.8 * start.thermal.convection_coefficient})
     rng = np.random.default_rng(8)
@@ -116,6 +128,28 @@ def test_an_air_flow_is_a_condition_with_its_own_heat_loss_scale():
                                                            rel=0.25)
 
 
+def test_an_air_flow_never_calibrated_is_predicted_with_its_priors_heat_loss():
+    # calibrated in still air only, the muscle runs at 0.8 W under a fan that takes 2.8x
+    # the heat away: predicted with the forced-air prior (2.5x) it is closer than as
+    # if the air were still
+    from tca_ros.calibration.calibration import calibrate
+    from tca_ros.calibration.conditions import scale_of
+    from tca_ros.calibration.predictions import full_nrmse
+    start = describe_muscle(SPEC, load_thread_presets()).params
+    fan = start.with_values(**{'thermal.convection_coefficient':
+                               2.8 * start.thermal.convection_coefficient,
+                               'effects.convection_exponent': 0.0})
+    rng = np.random.default_rng(9)
+    records = [bench_record(start, w, 0.02, rng, drift=0.0) for w in (0.4, 0.6)]
+    forced = bench_record(fan, 0.8, 0.02, rng, drift=0.0)
+    forced.meta['environment'] = 'forced_air'
+    cal = calibrate(records, start, model='cst', check=False)
+    assert cal.environments == {} and scale_of('forced_air', cal.environments) == 2.5
+    with_prior = full_nrmse(cal.params, [forced], 'cst')[0]
+    as_still = full_nrmse(cal.params, [forced], 'cst', scales={'forced_air': 1.0})[0]
+    assert with_prior < 0.5 * as_still, (with_prior, as_still)
+
+
 def test_an_environment_the_calibration_never_saw_is_an_extrapolation(files, tmp_path):
     root, config, paths = files
     cal = str(root / 'cal.yaml')
@@ -127,6 +161,7 @@ def test_an_environment_the_calibration_never_saw_is_an_extrapolation(files, tmp
     path.write_text(text)
     code, out = run(['validate', str(path), '--config', cal, '--model', 'cst'])
     assert code == 0 and 'environment forced_air not calibrated' in out, out
+    assert "taken at the prior 2.5x still air's" in out, out
 
 
 def test_an_isotonic_calibration_predicts_the_force_of_an_isometric_rig(files, tmp_path):
@@ -137,7 +172,7 @@ def test_an_isotonic_calibration_predicts_the_force_of_an_isometric_rig(files, t
     cal = str(root / 'cal_iso.yaml')
     assert run(['calibrate', paths['a'], paths['b'], paths['c'], '--config', config,
                 '--out', cal, '--model', 'cst', '--quiet'])[0] == 0
-    start = describe_muscle(SPEC).params
+    start = describe_muscle(SPEC, load_thread_presets()).params
     c2, _, c0 = start.fiber.gamma_coefficients
     truth = start.with_values(**{'effects.second_thermal_lag': 4.0,
                                  'fiber.gamma_coefficients': [c2, 40.0 * c2, c0],
@@ -165,7 +200,7 @@ def test_an_isometric_record_calibrates_the_same_params_and_predicts_a_load(tmp_
     from tca_ros.calibration.predictions import full_nrmse
     from tca_ros.model.rig_simulation import simulate_rig
     from tca_ros.records.data import read_record
-    start = describe_muscle(SPEC).params
+    start = describe_muscle(SPEC, load_thread_presets()).params
     truth = start.with_values(**{'fiber.untwist_gain': 1.3, 'effects.second_thermal_lag': 2.0})
     rng = np.random.default_rng(4)
     t = np.arange(0.0, 60.0, 0.2)
@@ -224,7 +259,7 @@ def test_a_spring_rig_record_calibrates_and_is_predicted(tmp_path):
     from tca_ros.calibration.calibration import calibrate
     from tca_ros.model.rig_simulation import simulate_rig
     from tca_ros.records.data import read_record
-    start = describe_muscle(SPEC).params
+    start = describe_muscle(SPEC, load_thread_presets()).params
     truth = start.with_values(**{'fiber.untwist_gain': 1.3, 'rig.mode': 'spring',
                                  'rig.pretension': 0.1, 'rig.spring_stiffness': 20.0})
     rng = np.random.default_rng(6)

@@ -14,10 +14,11 @@ import pytest
 
 from tca_ros.calibration.calibration import calibrate, CalibrationError, starts_warm
 from tca_ros.cli.main import main
-from tca_ros.model.params import load_params, muscle_at_rest
 from tca_ros.model.quasistatic import QuasiStaticUnsupported, simulate_quasistatic
 from tca_ros.model.simulation import simulate
+from tca_ros.model.tca_params import muscle_at_rest
 from tca_ros.model.thermal import heat_capacity, thermal_conductance
+from tca_ros.params.files import load_params
 from tca_ros.records.data import write_csv_record
 from tca_ros.records.record import Record
 

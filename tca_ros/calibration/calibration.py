@@ -51,8 +51,8 @@ import numpy as np
 
 from tca_ros.calibration import engine
 from tca_ros.calibration.calibration_parameters import apply_calibration, calibration_priors, \
-    coil_stiffness, damping_bound, DEFAULT_FIT, EFFECT_PARAMETERS, effect_priors, \
-    MAX_DAMPING_RATIO, OPTIONAL_FIT, PHYSICS_FIT  # noqa: F401 (API)
+    coil_stiffness, damping_bound, DEFAULT_FIT, default_fit, EFFECT_PARAMETERS, \
+    effect_priors, MAX_DAMPING_RATIO, OPTIONAL_FIT, PHYSICS_FIT, physics_names  # noqa: F401
 from tca_ros.calibration.conditions import environment_priors, environment_scales, \
     held_strength, is_isometric, measured, with_tension
 from tca_ros.calibration.predictions import defect_corrections, full_predictions, \
@@ -70,7 +70,6 @@ WARM_START_SIGMAS = 4.0  # the fall over them that is no noise, in its standard 
 WARM_START_MIN_FALL_K = 0.3  # K, and at least this fall (a thermocouple's resolution)
 BASE_NFEV = 40  # solver evaluations of a calibration by default
 PHYSICS_NFEV = 15  # more per added physics parameter (PHYSICS_FIT)
-MIN_CURVATURE_LEVELS = 2  # power levels needed to fit the characteristic's curvature
 POWER_OFF_SHARE = 0.05  # a logged power below this share of its peak is taken as off
 
 
@@ -258,33 +257,16 @@ def prepare_start(params, records, model=None):
     return params, notes
 
 
-def default_fit(records, physics=True):
-    """Return the names a calibration fits by default on ``records``.
-
-    DEFAULT_FIT, and with ``physics`` the actuation lag and, when the records hold
-    at least MIN_CURVATURE_LEVELS power levels, the curvature of the
-    stroke-temperature characteristic (expansion_zero_temperature): one level
-    shows the characteristic's shape only through a transient, and fitted there
-    the curvature predicted other powers worse (docs/calibration.md, "Physics").
-    """
-    names = list(DEFAULT_FIT)
-    if physics:
-        names.append('actuation_lag')
-        levels = {round(float(np.max(r.power)), 2) for r in records}
-        if len(levels) >= MIN_CURVATURE_LEVELS:
-            names.append('expansion_zero_temperature')
-    return names
-
-
 def calibrate(records, params, model=None, fit=None, progress=False, max_nfev=None,
               check=True, supply='power', masks=None, start_values=None, like=None,
               physics=True):
     """Calibrate ``params`` (start TcaParams) jointly on ``records``; return a Calibration.
 
     ``fit``: names to fit (default :func:`default_fit`, restricted to what the
-    records can inform); ``physics``: the default adds the actuation lag and the
-    curvature (False: DEFAULT_FIT only, the diagnosis's nominal model, whose
-    catalogue holds the lag as an effect to find); ``check``: score start and
+    records can inform); ``physics``: True adds PHYSICS_FIT to the default fit: the
+    actuation lag and the curvature; False none, the diagnosis's nominal model,
+    whose catalogue holds the lag as an effect to find; or a collection of
+    PHYSICS_FIT names; ``check``: score start and
     result with the full dynamics (18);
     ``masks``: per record a boolean array of the samples fitted (default all;
     the records are simulated whole either way, e.g. a diagnosis's training

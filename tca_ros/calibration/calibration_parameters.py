@@ -7,6 +7,8 @@ diagnosis and the realistic record generator alike.
 """
 import math
 
+import numpy as np
+
 from tca_ros.calibration import engine
 from tca_ros.calibration.physical_priors import ACTUATION_LAG_PRIOR, prior_spreads
 from tca_ros.model.effects import CATALOGUE
@@ -22,6 +24,7 @@ DEFAULT_FIT = ('heat_capacity', 'heat_loss', 'actuation_gain', 'stiffness_scale'
 #: physics a calibration adds when named in ``fit`` (or by ``--physics``): the curvature of
 #: the stroke-temperature characteristic and an actuation lag (docs/calibration.md)
 PHYSICS_FIT = ('expansion_zero_temperature', 'actuation_lag')
+MIN_CURVATURE_LEVELS = 2  # power levels needed to fit the characteristic's curvature
 #: prior standard deviation (K) of a record's initial temperature rise: nearly flat
 #: over the 0-60 K a muscle keeps a minute or so after a heating
 INITIAL_RISE_SPREAD = 30.0
@@ -220,3 +223,32 @@ def expansion_zero(fiber):
     """
     c2, c1, _ = fiber.gamma_coefficients
     return -c1 / (2.0 * c2) if c2 > 0.0 else -200.0
+
+
+def physics_names(physics):
+    """Return the PHYSICS_FIT names ``physics`` selects: True all, False none, or a collection."""
+    if physics is True or physics is False:
+        return PHYSICS_FIT if physics else ()
+    unknown = [n for n in physics if n not in PHYSICS_FIT]
+    if unknown:
+        raise ValueError(f'physics {unknown[0]!r}: unknown; allowed: {", ".join(PHYSICS_FIT)}')
+    return tuple(physics)
+
+
+def default_fit(records, physics=True):
+    """Return the names a calibration fits by default on ``records``.
+
+    DEFAULT_FIT, and with ``physics`` (physics_names) the actuation lag and, when
+    the records hold at least MIN_CURVATURE_LEVELS power levels, the curvature of
+    the stroke-temperature characteristic (expansion_zero_temperature): one level
+    shows the characteristic's shape only through a transient, and fitted there
+    the curvature predicted other powers worse (docs/calibration.md, "Physics").
+    """
+    names = list(DEFAULT_FIT)
+    chosen = physics_names(physics)
+    if 'actuation_lag' in chosen:
+        names.append('actuation_lag')
+    levels = {round(float(np.max(r.power)), 2) for r in records}
+    if 'expansion_zero_temperature' in chosen and len(levels) >= MIN_CURVATURE_LEVELS:
+        names.append('expansion_zero_temperature')
+    return names

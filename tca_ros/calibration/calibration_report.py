@@ -8,6 +8,8 @@ import os
 import numpy as np
 
 from tca_ros.calibration.predictions import full_predictions
+from tca_ros.model.quasistatic_effects import equilibrium_bound
+from tca_ros.model.thermal import HeatBalance
 
 COLUMNS = 4  # subplots per row
 FIGURE_DPI = 100
@@ -95,11 +97,15 @@ def format_plausibility(cal):
     if 'heat_capacity' in values and 'heat_loss' in values:
         tau = values['heat_capacity'] / values['heat_loss']
         peak = max((float(np.max(r.power)) for r in cal.records), default=0.0)
-        ratio = values.get('delivered_power_ratio', 1.0)
-        hot = cal.start.thermal.ambient_temperature + ratio * peak / values['heat_loss']
+        # eq. (1') at rest: the loss law of the description (a rise per watt that falls
+        # as the loss grows with the rise) and the delivered power of the calibration
+        hot = equilibrium_bound(peak, HeatBalance.of(cal.params))
+        effects = cal.params.effects
+        at = (f' (at {effects.convection_reference_dt:g} K; the loss grows as dT^'
+              f'{effects.convection_exponent:.2g})' if effects.convection_exponent else '')
         lines.append(f'derived: thermal time constant {tau:.3g} s, steady rise '
-                     f'{1.0 / values["heat_loss"]:.3g} K/W, {hot:.0f} degC at the highest '
-                     f'logged power {peak:.3g} W')
+                     f'{1.0 / values["heat_loss"]:.3g} K/W{at}, {hot:.0f} degC at the '
+                     f'highest logged power {peak:.3g} W')
     for a, b, kind, spread in cal.combinations():
         to = f' (to {spread:.0%})' if spread == spread else ''
         lines.append(f'the records fix the {kind} of {a} and {b}{to}, not each: their '

@@ -13,7 +13,7 @@ from tca_ros.model.effects import CATALOGUE, true_ambient
 from tca_ros.model.kinetostatic_models import make_kinetostatic_model
 from tca_ros.model.kinetostatics import loaded_length
 from tca_ros.model.kinetostatics import pitch_angle_of_length
-from tca_ros.model.params import SPECS
+from tca_ros.model.params_schema import SPECS
 
 
 @dataclass(frozen=True)

@@ -92,18 +92,43 @@ def environment_priors(records):
     return out
 
 
+def scale_of(environment, scales):
+    """Return the heat-loss scale (-) of ``environment``: calibrated, or its prior's median.
+
+    ``scales``: {environment: scale} a calibration fitted (None: none); an
+    environment it lacks gets ENVIRONMENT_PRIORS' median (UNKNOWN_PRIOR's, 1, for
+    a name it does not know), still air 1 by definition.
+    """
+    if environment == STILL_AIR:
+        return 1.0
+    if scales and environment in scales:
+        return scales[environment]
+    return ENVIRONMENT_PRIORS.get(environment, UNKNOWN_PRIOR)[0]
+
+
 def environment_scales(values):
     """Return {environment: heat-loss scale} of the scale entries in ``values``."""
     return {k[len(SCALE_PREFIX):]: v for k, v in values.items() if k.startswith(SCALE_PREFIX)}
 
 
 def in_environment(params, record, scales):
-    """Return ``params`` with the heat loss of the record's environment (``scales``, -)."""
-    scale = (scales or {}).get(environment_of(record), 1.0)
-    if scale == 1.0:
+    """Return ``params`` with the heat loss of the record's environment (``scales``, -).
+
+    An environment ``scales`` lacks (never calibrated) takes its prior's median
+    (scale_of): a fan's 2.5x still air's rather than none.
+
+    Outside still air the loss is carried by a flow (a fan, a liquid), whose
+    coefficient hardly depends on the temperature rise: the still-air growth
+    (effects.convection_exponent) is dropped there (docs/decisions.md C7).
+    """
+    env = environment_of(record)
+    if env == STILL_AIR:
         return params
-    return params.with_values(**{'thermal.convection_coefficient':
-                                 params.thermal.convection_coefficient * scale})
+    values = {'thermal.convection_coefficient':
+              params.thermal.convection_coefficient * scale_of(env, scales)}
+    if params.effects.convection_exponent != 0.0:
+        values['effects.convection_exponent'] = 0.0
+    return params.with_values(**values)
 
 
 def held_strength(params, records):

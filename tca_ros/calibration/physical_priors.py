@@ -12,7 +12,8 @@ something the model lacks (docs/calibration.md, "Physical priors").
 from dataclasses import dataclass
 import math
 
-from tca_ros.model.heat_transfer import natural_convection_coefficient, radiation_coefficient
+from tca_ros.model.heat_transfer import natural_convection_coefficient, radiation_coefficient, \
+    REFERENCE_RISE_K, STILL_AIR_EMISSIVITY as EMISSIVITY
 from tca_ros.model.thermal import heat_capacity, surface_area
 
 #: parameters whose uncertainty is in their unit (the rest relative: x/÷ (1 + u))
@@ -35,8 +36,6 @@ PLAUSIBLE_RANGE = {
 }
 #: |z| beyond which a value has left what the description stated: a finding to explain
 SHIFT_Z = 2.0
-REFERENCE_RISE_K = 50.0  # K, surface temperature rise at which the loss is estimated
-EMISSIVITY = 0.5  # -, between polished silver (0.05) and nylon (0.9): unknown
 
 
 def prior_spreads(params):

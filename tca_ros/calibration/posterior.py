@@ -33,8 +33,8 @@ import numpy as np
 
 from tca_ros.calibration.calibration_parameters import apply_calibration
 from tca_ros.calibration.conditions import SCALE_PREFIX
-from tca_ros.model.params import to_flat_dict
 from tca_ros.model.params_schema import ParameterError
+from tca_ros.model.tca_params import to_flat_dict
 
 POSTERIOR_KEY = 'posterior'  # params-file header line written by `tca_sim calibrate`
 NOT_DRAWN = ('initial_temperature_rise',)  # a record's start, not the muscle's

@@ -12,8 +12,8 @@ import json
 
 import numpy as np
 
-from tca_ros.calibration.conditions import environment_of, measured, rig_of, SCALE_PREFIX, \
-    STILL_AIR
+from tca_ros.calibration.conditions import environment_of, measured, rig_of, scale_of, \
+    SCALE_PREFIX, STILL_AIR
 from tca_ros.calibration.lumped import fit_lumped, predict_lumped
 from tca_ros.calibration.posterior import header_entry
 from tca_ros.calibration.predictions import full_predictions, normalised_rmse, predictor
@@ -105,9 +105,10 @@ def extrapolation(record, trained, peak_temperature):
     """Return the warnings (strings) of a record outside ``trained``'s range."""
     out = profile_extrapolation(trained, float(np.max(record.power)),
                                 float(np.max(record.load)), rig_of(record))
-    if environment_of(record) not in trained.get('environment', {STILL_AIR: 1.0}):
-        out.append(f'environment {environment_of(record)} not calibrated (its heat loss is '
-                   'taken as in still air)')
+    env = environment_of(record)
+    if env not in trained.get('environment', {STILL_AIR: 1.0}):
+        out.append(f'environment {env} not calibrated (its heat loss is taken at the prior '
+                   f"{scale_of(env, None):g}x still air's)")
     top = trained.get('peak_temperature_c')
     if top is not None and peak_temperature > top + TEMPERATURE_MARGIN_K:
         out.append(f'predicted {peak_temperature:.0f} degC above the calibrated '

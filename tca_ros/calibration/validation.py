@@ -64,23 +64,32 @@ def leave_one_condition_out(records, params, model=None, progress=False, supply=
     return rows, calibrations
 
 
+def condition_label(condition):
+    """Return the name of an operating condition (power level W, load N): 'P=1 W, F=0.2 N'."""
+    return f'P={condition[0]:g} W, F={condition[1]:g} N'
+
+
 def format_table(rows):
-    """Return the held-out table with per-condition and overall medians."""
-    lines = [f'{"held-out record":<38s}{"P (W)":>7s}{"calibrated":>12s}{"start":>9s}'
-             f'{"lumped":>9s}']
+    """Return the held-out table with per-condition and overall medians.
+
+    Each record row gives its condition's power (W) and load (N); each median row names
+    its condition by both, so one power at two loads gives two distinct rows.
+    """
+    lines = [f'{"held-out record":<38s}{"P (W)":>7s}{"F (N)":>8s}{"calibrated":>12s}'
+             f'{"start":>9s}{"lumped":>9s}']
     for h in rows:
         name = h.source.rsplit('/', 1)[-1][-36:]
-        lines.append(f'{name:<38s}{h.condition[0]:>7.2f}{h.calibrated:>12.1%}'
-                     f'{h.start:>9.1%}{h.lumped:>9.1%}')
-    for label, sel in [(f'median P={c[0]:g} W', [h for h in rows if h.condition == c])
+        lines.append(f'{name:<38s}{h.condition[0]:>7.2f}{h.condition[1]:>8.3g}'
+                     f'{h.calibrated:>12.1%}{h.start:>9.1%}{h.lumped:>9.1%}')
+    for label, sel in [(f'median {condition_label(c)}', [h for h in rows if h.condition == c])
                        for c in sorted({h.condition for h in rows})] + [('median', rows)]:
-        lines.append(f'{label:<45s}{np.median([h.calibrated for h in sel]):>12.1%}'
+        lines.append(f'{label:<53s}{np.median([h.calibrated for h in sel]):>12.1%}'
                      f'{np.median([h.start for h in sel]):>9.1%}'
                      f'{np.median([h.lumped for h in sel]):>9.1%}')
     return '\n'.join(lines)
 
 
-def repeat_floor(records, channel=None):
+def repeat_floor(records, channel=None, normalised=True):
     """Return per record the nRMSE (-) of the mean of its repeats; nan without repeats.
 
     The repeats of a record are the other records at its condition (condition_of),
@@ -88,7 +97,8 @@ def repeat_floor(records, channel=None):
     the condition's mean response exactly would score. Different muscles and
     their history make repeats differ; no model of one muscle does better.
     ``channel(record)``: the measured array compared (default the displacement, m);
-    the score is RMSE / its peak.
+    the score is RMSE / its peak, or the RMSE itself (the channel's unit) when not
+    ``normalised``.
     """
     channel = channel or (lambda r: r.displacement)
     out = []
@@ -99,6 +109,6 @@ def repeat_floor(records, channel=None):
             out.append(float('nan'))
             continue
         mean = np.mean([np.interp(r.time, o.time, channel(o)) for o in others], axis=0)
-        peak = max(float(np.percentile(channel(r), 99.5)), 1e-9)
+        peak = max(float(np.percentile(channel(r), 99.5)), 1e-9) if normalised else 1.0
         out.append(float(np.sqrt(np.mean((channel(r) - mean) ** 2))) / peak)
     return out

@@ -16,7 +16,7 @@ EXAMPLE = """example (the shipped synthetic recording of a free-stroke TCA; cst 
 def add_parser(subparsers):
     """Register ``calibrate`` on the `tca_sim` subparsers."""
     from tca_ros.calibration.calibration import DEFAULT_FIT
-    from tca_ros.model.params import MODELS
+    from tca_ros.model.params_schema import MODELS
     sp = subparsers.add_parser(
         'calibrate',
         help="fit a muscle's heat loss, heat capacity, actuation gain, stiffness, damping, "
@@ -72,7 +72,8 @@ def cmd_calibrate(args, out):
     from tca_ros.calibration.calibration import calibrate, CalibrationError
     from tca_ros.calibration.calibration_report import format_summary
     from tca_ros.cli.common import checked_config, InputError
-    from tca_ros.model.params import dump_params, load_params, muscle_at_rest
+    from tca_ros.model.tca_params import muscle_at_rest
+    from tca_ros.params.files import dump_params, load_params
     from tca_ros.records.data import read_record, record_config
     if os.path.exists(args.out) and not args.force:
         raise InputError(f'--out = {args.out!r}: exists (pass --force to overwrite)')

@@ -12,7 +12,8 @@ import sys
 
 import numpy as np
 
-from tca_ros.model.params import load_params, resolve_config
+from tca_ros.params.config_search import resolve_config
+from tca_ros.params.files import load_params
 from tca_ros.records.data import clip, NUMBER
 
 MAX_CONFIG_BYTES = 1 << 20  # a params file is a few kB; refuse to parse megabytes of YAML
@@ -34,7 +35,7 @@ MODEL_HELP = "kinetostatic model (default: the config's model)"
 def add_config_options(sp, default='free_stroke', config_help=CONFIG_HELP, model=True,
                        model_help=MODEL_HELP, required=False):
     """Add --config (a params file or shipped name) and, with ``model``, --model to ``sp``."""
-    from tca_ros.model.params import MODELS
+    from tca_ros.model.params_schema import MODELS
     kind = {'required': True} if required else {'default': default}
     sp.add_argument('--config', help=config_help, **kind)
     if model:

@@ -131,7 +131,7 @@ def _check_folder(path, option):
 def compare(args, out):
     """Simulate each record's inputs; write a PNG per record; print the errors (CSV)."""
     from tca_ros.cli.common import checked_config
-    from tca_ros.model.params import load_params
+    from tca_ros.params.files import load_params
     from tca_ros.records.data import read_record
     if args.rig not in (None, 'dead_weight'):
         raise InputError(f'--rig = {args.rig}: --compare simulates dead-weight records '
@@ -199,7 +199,8 @@ def _unique_stems(paths):
 
 
 def simulate_record(params, record, physics_rate):
-    """Return the SimulationResult of ``record``'s inputs (its mass, load, supply)."""
+    """Return the SimulationResult of ``record``'s inputs (its mass, load, supply, air)."""
+    from tca_ros.calibration.conditions import in_environment
     from tca_ros.calibration.predictions import record_params
     from tca_ros.model.simulation import simulate
     supply = str(record.meta.get('supply', 'power')).strip()
@@ -207,8 +208,10 @@ def simulate_record(params, record, physics_rate):
         row = record.meta_rows.get('supply', 1)
         raise InputError(f"{record.source}: row {row}, column 'supply': {clip(supply)!r}; "
                          f'allowed {", ".join(SUPPLIES)}')
-    result = simulate(record_params(params, record), record.time, record.power, record.load,
-                      physics_rate=physics_rate, supply=supply)
+    # the record's air flow scales the heat loss (its prior's, e.g. a fan's 2.5x)
+    result = simulate(in_environment(record_params(params, record), record, None),
+                      record.time, record.power, record.load, physics_rate=physics_rate,
+                      supply=supply)
     for column in ('displacement', 'temperature', 'resistance'):
         values = getattr(result, column)
         bad = np.flatnonzero(~np.isfinite(values))

@@ -37,7 +37,7 @@ EXAMPLE = """example (a mandrel-coiled silver-plated nylon 6,6 muscle under 10 g
 def add_parser(subparsers):
     """Register ``config`` and its ``new`` subcommand on the `tca_sim` subparsers."""
     from tca_ros.model.muscle import COIL_TYPES
-    from tca_ros.model.params import MODELS
+    from tca_ros.model.params_schema import MODELS
     sp = subparsers.add_parser(
         'config', help="describe a user's own muscle as a params file",
         description="Describe a user's own muscle as a params file for --config.",
@@ -119,12 +119,14 @@ def spec_from_args(args):
 def cmd_config_new(args, out):
     """Write the params file of a maker's muscle; print where and the derived figures."""
     from tca_ros.model.muscle import describe_muscle, loaded_length_at_ambient, MuscleError
-    from tca_ros.model.params import dump_params, load_params, ParameterError
+    from tca_ros.model.params_schema import ParameterError
+    from tca_ros.params.files import dump_params, load_params
+    from tca_ros.params.thread_presets import load_thread_presets
     if os.path.exists(args.out) and not args.force:
         raise ParameterError(f'--out = {args.out}: exists (use --force to overwrite)')
     spec = spec_from_args(args)
     try:
-        result = describe_muscle(spec)
+        result = describe_muscle(spec, load_thread_presets())
     except MuscleError as exc:
         raise ParameterError(exc.renamed(FLAGS)) from None
     params = result.params

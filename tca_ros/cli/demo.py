@@ -67,7 +67,8 @@ def run_demo(out_dir, sim_seconds=30.0, config='free_stroke', model=None):
     model : str, optional
         rod | cst | love; default the params file's (cst when rod is not installed).
     """
-    from tca_ros.model.params import load_params, resolve_config
+    from tca_ros.params.config_search import resolve_config
+    from tca_ros.params.files import load_params
 
     out = pathlib.Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -133,8 +134,9 @@ def _run(out, path, model, sim_seconds, env):
     # In lockstep the simulator repeats its first state until a command arrives, and the
     # controller (wait_for_setpoint) commands only once it has a setpoint, which this
     # recorder sends on every state it receives: sim time 0 waits for the whole loop.
-    pid = _start('tca_ros.ros.pid_node', ['-p', 'use_sim_time:=true',
-                                          '-p', 'wait_for_setpoint:=true'],
+    # tca_pid takes its time from the state's stamps: without use_sim_time it reads no
+    # /clock, one message less per tick (docs/node_figures.md, lockstep speed).
+    pid = _start('tca_ros.ros.pid_node', ['-p', 'wait_for_setpoint:=true'],
                  out / 'demo_pid.log', env)
     tca = _start('tca_ros.ros.node', ['--params-file', path, '-p', f'model:={model}',
                                       '-p', 'publish_clock:=true', '-p', 'real_time_factor:=0.0',

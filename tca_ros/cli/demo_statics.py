@@ -3,8 +3,9 @@ import os
 
 import numpy as np
 
-from tca_ros.model.params import GRAVITY, load_params, MODELS
+from tca_ros.model.params_schema import GRAVITY, MODELS
 from tca_ros.model.simulation import simulate, static_displacement
+from tca_ros.params.files import load_params
 
 DEMO_MASSES = (0.002, 0.03, 0.06)  # kg, the free-stroke weights of Fig. 10 [1]
 DEMO_TEMPS = np.arange(25.0, 160.0 + 1e-9, 5.0)  # degC, Sec. V-D2

@@ -21,7 +21,7 @@ from tca_ros.cli.common import add_config_options, check_finite, CliParser, coun
     package_version, params_from_args as _params, warn
 from tca_ros.cli.profile import read_profile  # noqa: F401 (tca_ros.cli.main's API)
 from tca_ros.cli.simulate import MAX_SIM_STEPS, RIG_PROFILE_COLUMNS  # noqa: F401 (API)
-from tca_ros.model.params import GRAVITY, MODELS, ParameterError
+from tca_ros.model.params_schema import GRAVITY, MODELS, ParameterError
 from tca_ros.records.data import ABSOLUTE_ZERO_DEGC, clip, DataError, MAX_LOAD_N, \
     MAX_POWER_W, MAX_TEMPERATURE_DEGC  # noqa: F401 (MAX_POWER_W: the limit cli users see)
 

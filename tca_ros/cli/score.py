@@ -121,7 +121,7 @@ def checked_limits(task, params, power_limit, source, model, rate, max_temperatu
 
 
 def _score_in_process(args, tasks):
-    from tca_ros.model.params import load_params
+    from tca_ros.params.files import load_params
     from tca_ros.ros.pid_node import PARAMETERS, PidController
     from tca_ros.toolkit.scoring import law_controller, MAX_POWER, MAX_TEMPERATURE, run_task
     params = load_params(checked_config(args.config))

@@ -23,7 +23,8 @@ from rclpy.qos import QoSProfile, ReliabilityPolicy
 from std_msgs.msg import Float64, Float64MultiArray
 
 from tca_ros.cli.common import InputError, stop_gracefully
-from tca_ros.model.params import from_flat_dict, SCHEMA
+from tca_ros.model.params_schema import SCHEMA
+from tca_ros.model.tca_params import from_flat_dict
 from tca_ros.ros.node_task import parse_record, task_message, TASK_QOS
 from tca_ros.toolkit.scoring import scored_run, task_inputs
 

@@ -13,7 +13,7 @@ import numpy as np
 from tca_ros.cli.common import add_config_options, check_finite, count, EXIT_EVENT, EXIT_OK, \
     finite_float, InputError, MAX_OUTPUT_SAMPLES, MESSAGE_CHARS, params_from_args
 from tca_ros.cli.profile import PROFILE_COLUMNS, read_profile_columns, resample_hold
-from tca_ros.model.params import RIG_MODES
+from tca_ros.model.params_schema import RIG_MODES
 from tca_ros.records.data import clip
 
 # `simulate` with cst ran 300 k physics steps in 10-13 s on a loaded 2-core machine

@@ -59,7 +59,7 @@ def _check(args):
 
 def cmd_linearize(args, out):
     """Print the linear plant at (--power, --load); write the plot and matrices."""
-    from tca_ros.model.params import load_params
+    from tca_ros.params.files import load_params
     from tca_ros.toolkit.linearize import linearize, OperatingPointError
     _check(args)
     overrides = {'model': args.model} if args.model else {}

@@ -32,7 +32,7 @@ def cmd_validate(args, out):
     from tca_ros.calibration.conditions import held_strength
     from tca_ros.calibration.transfer import format_validation, read_trained_range, validate
     from tca_ros.cli.common import checked_config
-    from tca_ros.model.params import load_params
+    from tca_ros.params.files import load_params
     from tca_ros.records.data import read_record
     path = checked_config(args.config)
     params = load_params(path)

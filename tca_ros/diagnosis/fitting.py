@@ -31,7 +31,7 @@ from tca_ros.diagnosis.grid_simulation import FIT_RATE_HZ, GridSimulations, \
     MIN_PHYSICS_RATE_HZ, STOP  # noqa: F401
 from tca_ros.diagnosis.holdout import DEFAULT_VALIDATION, make_holdout, mask_runs
 from tca_ros.diagnosis.noise import quantisation_sigma
-from tca_ros.model.params import SPECS
+from tca_ros.model.params_schema import SPECS
 
 FAILED_RESIDUAL = 1e3  # noise units per sample returned when a simulation fails
 DISPLACEMENT_NOISE_FLOOR = 1e-7  # m, noise floor for noise-free data

@@ -6,6 +6,7 @@
 from dataclasses import dataclass, field
 import math
 import os
+import statistics
 import time as wallclock
 
 from tca_ros.calibration.candidates import ABSORBED, absorbed_candidates, parameters_at_bounds
@@ -22,7 +23,7 @@ from tca_ros.diagnosis.parameter_names import NOMINAL_NAMES
 from tca_ros.diagnosis.search import MIN_GAIN_PERCENT, search_effects
 from tca_ros.diagnosis.verdict import channel_stats, decide_verdict, gain, holds_one_load, \
     needs_explaining, NOTHING_TO_EXPLAIN, ONE_LOAD_NOTE, pooled_heldout_rmse
-from tca_ros.model.params import SPECS
+from tca_ros.model.params_schema import SPECS
 from tca_ros.records.data import DataError, record_config
 
 VERDICTS = ('explained', 'adequate', 'unexplained')
@@ -233,6 +234,7 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
                                     or not needs_explaining(extended_stats)):
         # no structure left (the verdict may still be a finding's): say what one load hides
         notes.append(ONE_LOAD_NOTE)
+    notes.extend(repeat_notes(records, extended_rmse))
     helpful = []
     if verdict == 'unexplained' and effects:
         # what helps is shown, but an effect that leaves structure is not a cause
@@ -258,12 +260,33 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
     return result
 
 
+def repeat_notes(records, rmse):
+    """Return a note comparing the held-out displacement RMSE (m) with the repeat spread.
+
+    Records of one muscle at one condition (calibration.validation.condition_of)
+    are repeats: the RMS difference of each from the mean of the others (m) is
+    what no model of the inputs can predict. A residual of that size is the
+    records' resolution, not a model error to name.
+    """
+    from tca_ros.calibration.validation import repeat_floor
+    spread = [s for s in repeat_floor(records, normalised=False) if s == s]
+    if not spread or 'displacement' not in rmse:
+        return []
+    floor, left = float(statistics.median(spread)), float(rmse['displacement'])
+    relation = 'below' if left < floor else 'above'
+    return [f'the held-out displacement RMSE ({left * 1e3:.3g} mm) is {relation} the spread '
+            f'between repeated runs at one condition ({floor * 1e3:.3g} mm, the median RMS '
+            f'difference of {len(spread)} records from the mean of their repeats): '
+            + ('a model error smaller than that spread cannot be resolved by these records'
+               if left < floor else 'the model misses more than the runs differ by')]
+
+
 def _file_values(calibrated, params, config, model):
     """Return {calibration name: (value, unit)} of a calibrated params file, or {}."""
     if not calibrated:
         return {}
     from tca_ros.diagnosis.parameter_names import calibrated_values
-    from tca_ros.model.params import load_params
+    from tca_ros.params.files import load_params
     return calibrated_values(params, load_params(config, model=model))
 
 
@@ -274,7 +297,7 @@ def _read(data_path, config, calibrated, model):
     fits run (the extended params file must name the model its effects were fitted
     with).
     """
-    from tca_ros.model.params import load_params
+    from tca_ros.params.files import load_params
     paths = ([data_path] if isinstance(data_path, (str, os.PathLike))
              else list(data_path))
     records = [read_any(p, config) for p in paths]

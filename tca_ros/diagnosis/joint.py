@@ -27,7 +27,7 @@ from tca_ros.calibration.candidates import parameters_at_bounds
 from tca_ros.diagnosis.search import LAG_EFFECTS, MIN_GAIN_PERCENT
 from tca_ros.diagnosis.verdict import channel_stats, heldout_gain_over, needs_explaining, \
     pooled_heldout_rmse
-from tca_ros.model.params import to_flat_dict
+from tca_ros.model.tca_params import to_flat_dict
 
 JOINT_TOP = 3  # candidates of the search's first round calibrated jointly, best first
 PAIR_LEADS = 2  # single joint fits that help without explaining, each tried with partners

@@ -45,7 +45,8 @@ def nominal_with_fallback(records, params_of, cal, from_file, base, options, not
     model = options['model']
     try:
         return nominal_problems(records, params_of, cal is not None or from_file, options,
-                                paths, described=base) + (cal, params_of)
+                                paths, cal.environments if cal is not None else None,
+                                described=base) + (cal, params_of)
     except DataError:
         raise
     except (ValueError, ArithmeticError) as exc:  # StabilityError is a ValueError
@@ -62,17 +63,23 @@ def nominal_with_fallback(records, params_of, cal, from_file, base, options, not
                              f'record with model={model} ({again})') from None
 
 
-def nominal_problems(records, params_of, recalibrated, options, paths, described=None):
+def nominal_problems(records, params_of, recalibrated, options, paths, scales=None,
+                     described=None):
     """Return (problems, problem or set, start values, nominal simulations).
 
     ``recalibrated``: the nominal parameters stay free in the search
     (candidates.recalibration_spaces), within the stated uncertainty of the
-    description ``described`` (TcaParams) where given. Raises ValueError (a DataError for
-    records whose channels differ) or ArithmeticError when the nominal model
-    cannot simulate a record.
+    description ``described`` (TcaParams) where given; ``scales``: {environment:
+    heat-loss scale} a calibration fitted: a record's environment (``# environment:``)
+    scales its heat loss as the calibration's predictions do
+    (conditions.in_environment; an environment not fitted takes its prior's, a fan's
+    2.5x). Raises ValueError (a DataError for records whose channels differ) or
+    ArithmeticError when the nominal model cannot simulate a record.
     """
+    from tca_ros.calibration.conditions import in_environment
     from tca_ros.diagnosis.problem_set import FitProblemSet
-    problems = [FitProblem(r, p, **options) for r, p in zip(records, params_of)]
+    problems = [FitProblem(r, in_environment(p, r, scales), **options)
+                for r, p in zip(records, params_of)]
     try:
         problem = problems[0] if len(problems) == 1 else FitProblemSet(problems)
     except ValueError as exc:
@@ -93,7 +100,7 @@ def nominal_problems(records, params_of, recalibrated, options, paths, described
 
 def read_any(path, config):
     """Return the Record of a CSV or a rosbag2 recording (a bag needs ``config``)."""
-    from tca_ros.model.params import load_params
+    from tca_ros.params.files import load_params
     from tca_ros.records.data import read_bag_record
     if os.path.isdir(path) or str(path).endswith('.mcap'):
         if config is None:

@@ -14,7 +14,8 @@ from tca_ros.diagnosis import plots
 from tca_ros.diagnosis.parameter_names import nominal_value
 from tca_ros.diagnosis.summary import heldout_text, nominal_lines
 from tca_ros.diagnosis.verdict import gain
-from tca_ros.model.params import dump_params, muscle_at_rest
+from tca_ros.model.tca_params import muscle_at_rest
+from tca_ros.params.files import dump_params
 
 FIGURE_DPI = 110
 

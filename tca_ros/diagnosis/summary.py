@@ -16,7 +16,7 @@ def _format_value(name, value, params=None):
     short = name.split('.', 1)[1]
     if unit:
         return f'{short}={value * unit[1]:.3g} {unit[0]}'
-    from tca_ros.model.params import SPECS
+    from tca_ros.model.params_schema import SPECS
     return f'{short}={value:.3g} {SPECS[name].unit}'.rstrip(' -')
 
 

@@ -10,8 +10,10 @@ the unloaded state (the end pushed up) they extrapolate linearly with the edge
 stiffness.
 
 A row costs a few seconds of rod solves, so rows are built when a query first needs
-them and kept in memory and on disk (``$TCA_ROS_CACHE``, default
-``~/.cache/tca_ros``), keyed by the mechanical parameters. Each row also keeps a
+them and kept in memory and in a row store, keyed by the mechanical parameters: the
+model reads no files, a store given to the table or by :func:`use_row_store` keeps
+the rows (tca_ros.params.row_cache keeps them on disk, ``$TCA_ROS_CACHE``, default
+``~/.cache/tca_ros``, once tca_ros.params is imported). Each row also keeps a
 coarse set of centrelines for display (the node's ``shape`` Marker).
 
 References
@@ -22,7 +24,6 @@ from dataclasses import dataclass
 import functools
 import hashlib
 import math
-import os
 
 import numpy as np
 from scipy.interpolate import PchipInterpolator
@@ -86,10 +87,20 @@ def _shape_at(points, drops, drop):
     return HANGING @ ((1.0 - w) * a[:, pick] + w * b[:, pick])
 
 
-def cache_dir():
-    """Return the directory of cached rows: $TCA_ROS_CACHE or ~/.cache/tca_ros."""
-    return os.environ.get('TCA_ROS_CACHE') or os.path.join(
-        os.path.expanduser('~'), '.cache', 'tca_ros')
+#: The row store of tables given none (use_row_store); None: rows kept in memory only.
+_default_store = None
+
+
+def use_row_store(store):
+    """Keep the rows of conical tables given no store of their own in ``store``.
+
+    ``store`` has ``load(key, index)`` -> ConicalRow or None and ``save(key, index,
+    row)`` (``key`` names the mechanical parameters, ``index`` the temperature row);
+    None keeps rows in memory only. Return the store it replaces.
+    """
+    global _default_store
+    previous, _default_store = _default_store, store
+    return previous
 
 
 class ConicalTable:
@@ -99,10 +110,14 @@ class ConicalTable:
     ----------
     params : TcaParams
         A conical TCA, only its mechanical fields read (rod_model.mechanical_params).
+    store : row store, optional
+        Where rows persist between processes (use_row_store); default: the store
+        given to use_row_store when a row is first needed.
     """
 
-    def __init__(self, params):
+    def __init__(self, params, store=None):
         self.params = params
+        self._store = store
         ambient = params.thermal.ambient_temperature
         self.temp0 = ambient - BELOW_AMBIENT_MARGIN
         self.temp_step = TEMP_STEP
@@ -115,29 +130,31 @@ class ConicalTable:
                                              mesh_steps(params, ambient)).positions[2, -1])
 
     def row(self, i):
-        """Return ConicalRow i (T = temp0 + i temp_step), from memory, disk or solved."""
-        row = self._rows.get(i)
+        """Return ConicalRow i (T = temp0 + i temp_step), from memory, store or solved."""
+        row = self.cached_row(i)
         if row is None:
-            row = self._rows[i] = self._load_or_build(i)
+            row = self._rows[i] = self._build_and_save(i)
         return row
 
-    def _load_or_build(self, i):
-        temp = self.temp0 + i * self.temp_step
-        path = os.path.join(cache_dir(), f'conical_{self._key}_{i:03d}.npz')
-        try:
-            with np.load(path) as data:
-                return ConicalRow(**{k: (data[k] if data[k].ndim else float(data[k]))
-                                     for k in data.files})
-        except (OSError, ValueError, KeyError, TypeError):
-            pass
-        row = build_row(self.params, temp, self.natural_drop)
-        try:
-            os.makedirs(os.path.dirname(path), exist_ok=True)
-            partial = f'{path}.{os.getpid()}.tmp.npz'
-            np.savez(partial, **row.__dict__)
-            os.replace(partial, path)
-        except OSError:
-            pass  # a read-only cache only costs the rebuild next time
+    def cached_row(self, i):
+        """Return ConicalRow i from memory or the row store, or None (nothing solved)."""
+        row = self._rows.get(i)
+        if row is None:
+            store = self._store if self._store is not None else _default_store
+            row = store.load(self._key, i) if store is not None else None
+            if row is not None:
+                self._rows[i] = row
+        return row
+
+    def insert(self, i, row):
+        """Keep ConicalRow i built elsewhere (another process, from the same params)."""
+        self._rows[i] = row
+
+    def _build_and_save(self, i):
+        row = build_row(self.params, self.temp0 + i * self.temp_step, self.natural_drop)
+        store = self._store if self._store is not None else _default_store
+        if store is not None:
+            store.save(self._key, i, row)
         return row
 
     def build_all(self):

@@ -1,9 +1,10 @@
 """Extensions of the nominal TCA model: the catalogue the diagnosis searches.
 
 Each effect is a physical relation, neutral at its default parameter value
-(``EffectParams`` in params.py), so the nominal model is the extended model with
-every effect switched off. The simulator (dynamics.py) and the node call these
-functions; the diagnosis (tca_ros.diagnosis) fits their parameters.
+(``EffectParams`` in tca_params.py), so the nominal model is the extended model with
+every effect switched off. The steppers call these functions, and the thermal
+effects (radiation, nonlinear convection, the lags) are terms of eq. (1) in
+thermal.py; the diagnosis (tca_ros.diagnosis) fits their parameters.
 
 ==================== ============================= ===================================
 name                 parameter(s)                  relation
@@ -85,45 +86,9 @@ def heating_power(power, effects, delivered_ratio=1.0):
     return (1.0 - effects.power_loss_fraction) * delivered_ratio * power
 
 
-def second_lag_step(fiber_temp, temp, dt, effects):
-    """Return the actuating fiber temperature T_f (degC) after dt (s), T (degC) held.
-
-    'second_thermal_lag': tau_2 dT_f/dt = T - T_f, T the temperature of eq. (1) (the
-    heated, logged one); T_f = T when the lag is off.
-    """
-    tau = effects.second_thermal_lag
-    if tau <= 0.0:
-        return temp
-    return temp + (fiber_temp - temp) * math.exp(-dt / tau)
-
-
 def true_ambient(thermal, effects):
     """Return the true ambient temperature (degC): nominal + 'ambient_offset' (K)."""
     return thermal.ambient_temperature + effects.ambient_offset
-
-
-def convection_factor(temp, ambient, effects):
-    """Return h_eff / h (-): (|T - T_inf| / dT_ref)^n, 'nonlinear_convection'.
-
-    Natural convection from a thin cylinder grows with the temperature difference
-    (laminar correlations give n = 1/4) [4]. n = 0 is the constant h of eq. (1).
-    """
-    n = effects.convection_exponent
-    if n == 0.0:
-        return 1.0
-    return (abs(temp - ambient) / effects.convection_reference_dt) ** n
-
-
-def radiation_loss(temp, ambient, area, effects):
-    """Return the radiated power eps sigma A (T^4 - T_inf^4) (W), 'radiation' [4].
-
-    ``area`` (m^2) is the smooth surface A_0: the roughness of c_s traps its own
-    radiation, so the envelope radiates.
-    """
-    if effects.emissivity == 0.0:
-        return 0.0
-    return effects.emissivity * STEFAN_BOLTZMANN * area * (
-        (temp + KELVIN) ** 4 - (ambient + KELVIN) ** 4)
 
 
 def play_operator(temp, state, width):
@@ -142,14 +107,6 @@ def creep_rate(creep_elongation, tension, effects):
         dy_c/dt = (C F - y_c) / tau_c
     """
     return (effects.creep_compliance * tension - creep_elongation) / effects.creep_time_constant
-
-
-def lag_filter(measured, true_value, dt, effects):
-    """Return the lagged sensor reading after dt (s), 'sensor_lag' (first order)."""
-    tau = effects.sensor_lag
-    if tau == 0.0:
-        return true_value
-    return true_value + (measured - true_value) * math.exp(-dt / tau)
 
 
 def coulomb_friction(holding_force, at_rest, effects):

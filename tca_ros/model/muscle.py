@@ -8,7 +8,8 @@ the coil radius r*, the fiber length l_t, the coil count, the contact angle, the
 inserted twist, and the thermal and electrical constants. docs/describe.md gives the
 derivations and the decisions behind them.
 
-The thread presets are read by thread_presets.py, the geometric relations are in
+The thread presets (ThreadPreset, in muscle_spec.py) are read from their file by
+tca_ros.params.thread_presets and passed in; the geometric relations are in
 coil_geometry.py, the maker's description (MuscleSpec) and its checks in muscle_spec.py.
 
 Conventions
@@ -36,14 +37,16 @@ from tca_ros.model.coil_geometry import coil_count, conical_coil_count, \
     conical_fiber_length, conical_height_of_coil_count, contact_pitch_angle, \
     equivalent_helix, fiber_length_of_natural_length, inserted_twist_of_diameter, \
     mandrel_coil_radius, outer_coil_radius, pitch_angle_of_coil_count
+from tca_ros.model.heat_transfer import REFERENCE_RISE_K, still_air_loss_exponent
 from tca_ros.model.kinetostatic_models import make_kinetostatic_model
 from tca_ros.model.kinetostatics import loaded_length
 from tca_ros.model.muscle_spec import check_exactly_one, check_positive, check_spec, \
-    COIL_TYPES, is_finite, MuscleError, MuscleSpec, SPEC_UNITS  # noqa: F401 (COIL_TYPES: API)
-from tca_ros.model.params import from_flat_dict, GRAVITY, ParameterError, SCHEMA, SPECS
+    COIL_TYPES, is_finite, MuscleError, MuscleSpec, SPEC_UNITS, \
+    ThreadPreset  # noqa: F401 (COIL_TYPES: API)
+from tca_ros.model.params_schema import GRAVITY, ParameterError, SCHEMA, SPECS
+from tca_ros.model.tca_params import from_flat_dict
 from tca_ros.model.thermal import (fiber_mass, heat_capacity, surface_area,
                                    thermal_conductance, thermal_time_constant)
-from tca_ros.model.thread_presets import load_thread_presets, ThreadPreset
 
 #: tca_type written for each way of coiling (a mandrel-coiled helix is the paper's
 #: free-stroke TCA).
@@ -82,8 +85,11 @@ class MuscleDescription:
     derived: dict
 
 
-def describe_muscle(spec, presets=None):
+def describe_muscle(spec, presets):
     """Return the MuscleDescription of ``spec`` (a MuscleSpec).
+
+    ``presets`` maps thread names to ThreadPreset (tca_ros.params.thread_presets
+    .load_thread_presets reads the shipped ones).
 
     Raises
     ------
@@ -91,7 +97,6 @@ def describe_muscle(spec, presets=None):
         One line naming the field, its value and why the muscle cannot exist or is
         not fully described.
     """
-    presets = presets if presets is not None else load_thread_presets()
     preset = check_spec(spec, presets)
     r_t = 0.5 * spec.thread_diameter
     derived = {}
@@ -112,9 +117,27 @@ def describe_muscle(spec, presets=None):
         _helix_geometry(spec, flat, derived, r_t)
     flat['electrical.resistance'] = _resistance(spec, preset, flat, derived)
     flat['fiber.break_force'] = _break_force(spec, preset, r_t, derived)
+    _still_air_loss(spec, flat, derived)
     params = _build(flat)
     _thermal_figures(params, derived)
     return MuscleDescription(params=params, preset=preset, derived=derived)
+
+
+def _still_air_loss(spec, flat, derived):
+    """Set the growth of eq. (1)'s heat loss with the rise, as a thin thread's in still air.
+
+    h(dT) = h(dT_ref) (dT / dT_ref)^n (the 'nonlinear_convection' law of
+    effects.py) with n from Morgan's correlation on the thread's diameter plus
+    radiation (heat_transfer.still_air_loss_exponent, about 0.17 for 0.45 mm) and
+    dT_ref = REFERENCE_RISE_K: a real thread's loss coefficient grows with its
+    temperature, where the paper's eq. (1) keeps it constant (docs/decisions.md C7).
+    """
+    n = still_air_loss_exponent(spec.thread_diameter, spec.ambient_degc)
+    flat['effects.convection_exponent'] = n
+    flat['effects.convection_reference_dt'] = REFERENCE_RISE_K
+    derived['effects.convection_exponent'] = Derived(
+        n, '-', f'h ~ dT^n in still air (Morgan + radiation, 25-100 K, '
+        f'h quoted at {REFERENCE_RISE_K:g} K)')
 
 
 def _helix_geometry(spec, flat, derived, r_t):

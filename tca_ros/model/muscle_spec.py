@@ -4,13 +4,46 @@ A MuscleError names the MuscleSpec field, its value and unit and why it is refus
 in one line; the CLI renames the fields to its flags. muscle.py derives the params
 file from a checked spec.
 """
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 import math
 import re
 
-from tca_ros.model.params import MODELS, ParameterError, SPECS
+from tca_ros.model.params_schema import MODELS, ParameterError, SPECS
 
 COIL_TYPES = ('self_coiled', 'mandrel', 'conical')
+
+#: Schema names a thread preset may set: the material, not the muscle.
+MATERIAL_PARAMETERS = frozenset((
+    'fiber.bias_angle_deg', 'fiber.volume_fraction', 'fiber.density',
+    'fiber.specific_heat', 'fiber.gamma_coefficients', 'thermal.convection_coefficient',
+    'thermal.surface_factor', 'moduli.youngs_modulus', 'moduli.shear_modulus',
+    'moduli.fiber_modulus', 'moduli.fiber_softening', 'moduli.load_coefficients',
+    'moduli.max_torsion_strain', 'moduli.fiber_modulus_floor',
+    'electrical.temperature_coefficient', 'electrical.strain_coefficient'))
+
+
+#: Pa: the paper's twisted thread (d = 0.42 mm) breaks under 240 g (Sec. V-A)
+DEFAULT_BREAKING_STRESS = 2.354 / (math.pi * 0.21e-3 ** 2)
+
+
+@dataclass(frozen=True)
+class ThreadPreset:
+    """Material of a thread a maker names (config/threads/threads.yaml).
+
+    A preset sets only material parameters of the schema (MATERIAL_PARAMETERS):
+    ``params`` maps schema names (``fiber.density``) to values in schema units;
+    ``resistance_per_length`` is in ohm/m (None if not conductive) and
+    ``twist_diameter_product`` theta* d in rad. muscle.py combines it with the
+    maker's geometry; tca_ros.params.thread_presets reads the presets file.
+    """
+
+    name: str
+    description: str
+    conductive: bool
+    resistance_per_length: object
+    twist_diameter_product: float
+    params: dict = field(default_factory=dict)
+    breaking_stress: float = DEFAULT_BREAKING_STRESS  # Pa, of the twisted thread's section
 
 
 class MuscleError(ParameterError):

@@ -3,8 +3,9 @@
 One ParamSpec per parameter, in the order the node declares them (SCHEMA, by name
 in SPECS), and the check of one value against its spec (check_value), whose
 one-line error names the parameter, the value and what is allowed, with a hint
-where YAML 1.1 (PyYAML, ``ros2 param set``) read a number as a string. params.py
-builds the typed parameter sets and reads and writes the params files from it.
+where YAML 1.1 (PyYAML, ``ros2 param set``) read a number as a string, told by
+YAML 1.1's typing rules without reading YAML. tca_params.py builds the typed
+parameter sets from it; tca_ros.params reads and writes the params files.
 """
 import array
 from dataclasses import dataclass
@@ -13,7 +14,6 @@ import numbers
 import re
 
 import numpy as np
-import yaml
 
 GRAVITY = 9.81  # m/s^2, g_r of Sec. III-C [1]
 
@@ -272,21 +272,47 @@ def _yaml11_hint(value):
     if not isinstance(value, str):
         return ''
     for token in _EXPONENT_NUMBER.findall(value):
-        if isinstance(yaml.safe_load(token), str):
+        if yaml11_number_type(token) is None:
             mantissa, exponent = re.split('[eE]', token)
             mantissa += '' if '.' in mantissa else '.0'
             exponent = exponent if exponent[0] in '+-' else '+' + exponent
             return (f' (YAML 1.1, as ros2 param set reads it, takes {token} for a string: '
                     f'write {mantissa}e{exponent})')
-    try:
-        items = yaml.safe_load(value)
-    except yaml.YAMLError:
-        return ''
-    kinds = {type(v) for v in items} if isinstance(items, list) else set()
+    flow = _FLOW_SEQUENCE.fullmatch(value)
+    items = [item.strip() for item in flow.group(1).split(',')] if flow else []
+    if items and not items[-1] and len(items) > 1:
+        items.pop()  # a trailing comma ends a flow sequence
+    kinds = {yaml11_number_type(item) for item in items}
     if kinds == {int, float}:  # ros2 param set sends a mixed list as one string
         return (' (ros2 param set sends a list mixing integers and floats as a string: '
                 'write the integers as floats, 1 as 1.0)')
     return ''
+
+
+#: Plain scalars YAML 1.1 types as int: decimal, octal, hexadecimal, binary, base 60.
+_YAML11_INT = re.compile(r'[-+]?(?:0b[01_]+|0x[0-9a-fA-F_]+|0[0-7_]+|0'
+                         r'|[1-9][0-9_]*(?::[0-5]?[0-9])*)')
+#: Plain scalars YAML 1.1 types as float: a point is needed, and an exponent its sign
+#: (a leading point takes no sign); base 60; infinities and NaN.
+_YAML11_FLOAT = re.compile(r'[-+]?[0-9][0-9_]*\.[0-9_]*(?:[eE][-+][0-9]+)?'
+                           r'|\.[0-9][0-9_]*(?:[eE][-+][0-9]+)?'
+                           r'|[-+]?[0-9][0-9_]*(?::[0-5]?[0-9])+\.[0-9_]*'
+                           r'|[-+]?\.(?:inf|Inf|INF)|\.(?:nan|NaN|NAN)')
+#: A one-level flow sequence of plain scalars, ``[a, b, c]``, with an optional comment.
+_FLOW_SEQUENCE = re.compile(r'\s*\[([^\[\]{}\'"]*)\]\s*(?:#.*)?', re.S)
+
+
+def yaml11_number_type(text):
+    """Return int or float as YAML 1.1 types the plain scalar ``text``, else None.
+
+    The typing rules of YAML 1.1, the version PyYAML and ``ros2 param set`` read,
+    so that the schema explains a value read as a string without reading YAML.
+    """
+    if _YAML11_FLOAT.fullmatch(text):
+        return float
+    if _YAML11_INT.fullmatch(text):
+        return int
+    return None
 
 
 def _is_real(value):

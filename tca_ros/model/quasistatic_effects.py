@@ -13,9 +13,10 @@ change that chain; each is reproduced here as dynamics.py applies it:
     creep                             tau_c dy_c/dt = C f_rod - y_c, y_c(0) = 0;
                                       q = y_coil + y_c, coil contact on y_coil
 
-Eq. (1') is stepped by classical Runge-Kutta under zero-order-hold power, like the
-full dynamics, but on the record's own grid: each interval is split into the
-fewest equal substeps with h lambda <= RK4_STEP_RATE, lambda = Q'(T) / (m_t c_p)
+Eq. (1') is written once, in thermal.py (HeatBalance, heat_loss, heat_step_rk4):
+the reduction steps it by the full dynamics' own classical Runge-Kutta step under
+zero-order-hold power, but on the record's own grid: each interval is split into
+the fewest equal substeps with h lambda <= RK4_STEP_RATE, lambda = Q'(T) / (m_t c_p)
 at the hottest temperature the heating can reach. The play operator is rate
 independent, so applying it at the samples equals the 1 kHz stepper whenever T_f
 is monotonic between samples. The creep element sees the tension f_rod = F of the
@@ -27,16 +28,15 @@ reaches contact only near 250 degC).
 References
 ----------
 [1] J. Sun and J. Zhao, IEEE Trans. Robot., 2022 (eq. (1), (18)).
-[2] effects.py: creep_rate, play_operator, radiation_loss, convection_factor.
+[2] effects.py: creep_rate, play_operator; thermal.py: heat_loss (radiation and
+    nonlinear convection).
 """
-from dataclasses import dataclass
 import math
 
 import numpy as np
 from scipy.signal import lfilter
 
-from tca_ros.model import effects as fx
-from tca_ros.model.thermal import heat_capacity, surface_area, thermal_conductance
+from tca_ros.model.thermal import heat_loss, heat_loss_slope, heat_march_rk4
 
 RK4_STEP_RATE = 0.2  # largest h lambda per RK4 substep: local error ~ (h lambda)^5 / 120
 BRACKET_START = 1.0  # K, first temperature rise tried when bracketing the hottest state
@@ -45,100 +45,15 @@ BISECTIONS = 60  # halvings of the bracket: 1e5 K / 2^60, far below a rounding e
 ONSET_RESOLUTION = 1e-6  # fraction of an interval below which an onset is not inserted
 
 
-@dataclass(frozen=True, slots=True)
-class HeatBalance:
-    """The terms of eq. (1') for one parameter set, as floats for the RK4 loop.
+def equilibrium_bound(power, balance):
+    """Return the temperature (degC) where eq. (1') rests under the logged ``power`` (W).
 
-    capacity m_t c_p (J/K), conductance h c_s A_0 (W/K), exponent n (-) and
-    inverse_reference 1 / dT_ref (1/K) of 'nonlinear_convection', radiation
-    eps sigma A_0 (W/K^4) of 'radiation' (A_0 the smooth surface, as
-    effects.radiation_loss), ambient T_inf (degC, with 'ambient_offset') and
-    ambient_kelvin4 (T_inf + 273.15)^4 (K^4).
+    Where the loss Q(T) (thermal.heat_loss) carries the heating (1 - eta) r P. Q rises
+    monotonically with T, so from ambient under power held at most P the fiber never
+    passes this temperature (nor, for negative P, falls below it). ``balance`` is
+    the thermal.HeatBalance of the TCA.
     """
-
-    capacity: float
-    conductance: float
-    exponent: float
-    inverse_reference: float
-    radiation: float
-    ambient: float
-    ambient_kelvin4: float
-
-    @classmethod
-    def of(cls, params):
-        """Return the heat balance of TcaParams ``params`` (as thermal_step.py builds it)."""
-        e = params.effects
-        ambient = float(fx.true_ambient(params.thermal, e))
-        # Python floats: numpy scalars would make the RK4 loop several times slower
-        return cls(capacity=float(heat_capacity(params.fiber)),
-                   conductance=float(thermal_conductance(params.fiber, params.thermal)),
-                   exponent=float(e.convection_exponent),
-                   inverse_reference=1.0 / float(e.convection_reference_dt),
-                   radiation=float(e.emissivity * fx.STEFAN_BOLTZMANN
-                                   * surface_area(params.fiber)),
-                   ambient=ambient, ambient_kelvin4=(ambient + fx.KELVIN) ** 4)
-
-    @property
-    def linear(self):
-        """Return True when eq. (1') is the linear eq. (1): no radiation, n = 0."""
-        return self.radiation == 0.0 and self.exponent == 0.0
-
-
-def heat_loss(temp, balance):
-    """Return the heat Q(T) (W) the fiber loses at ``temp`` (degC), eq. (1').
-
-        Q(T) = h c_s A_0 (T - T_inf) (|T - T_inf| / dT_ref)^n
-               + eps sigma A_0 ((T + 273.15)^4 - (T_inf + 273.15)^4)
-
-    The convection of eq. (1) times effects.convection_factor plus
-    effects.radiation_loss, from the precomputed HeatBalance ``balance`` (the RK4
-    loop calls it four times per step).
-    """
-    rise = temp - balance.ambient
-    kelvin2 = temp + fx.KELVIN
-    kelvin2 *= kelvin2
-    return (balance.conductance * rise * (abs(rise) * balance.inverse_reference)
-            ** balance.exponent + balance.radiation * (kelvin2 * kelvin2
-                                                       - balance.ambient_kelvin4))
-
-
-def heat_loss_slope(temp, balance):
-    """Return dQ/dT (W/K) of eq. (1') at ``temp`` (degC).
-
-        dQ/dT = h c_s A_0 (1 + n) (|T - T_inf| / dT_ref)^n + 4 eps sigma A_0 (T + 273.15)^3
-    """
-    rise = abs(temp - balance.ambient)
-    return (balance.conductance * (1.0 + balance.exponent) * (rise * balance.inverse_reference)
-            ** balance.exponent + 4.0 * balance.radiation * (temp + fx.KELVIN) ** 3)
-
-
-def rk4_thermal_march(temp, heating, steps, balance):
-    """Return T (degC) after each step of eq. (1') from ``temp`` (degC), a list.
-
-    Classical Runge-Kutta, as thermal_step.ThermalStepper steps eq. (1) when it is
-    nonlinear: heating P_in ``heating[j]`` (W) held over ``steps[j]`` (s), both
-    sequences of floats.
-    """
-    scale = 1.0 / balance.capacity
-    loss = heat_loss
-    out = []
-    for power, h in zip(heating, steps):
-        half = 0.5 * h
-        k1 = (power - loss(temp, balance)) * scale
-        k2 = (power - loss(temp + half * k1, balance)) * scale
-        k3 = (power - loss(temp + half * k2, balance)) * scale
-        k4 = (power - loss(temp + h * k3, balance)) * scale
-        temp += h * (k1 + 2.0 * (k2 + k3) + k4) / 6.0
-        out.append(temp)
-    return out
-
-
-def equilibrium_bound(heating, balance):
-    """Return the temperature (degC) where Q(T) = ``heating`` (W), eq. (1') at rest.
-
-    Q rises monotonically with T, so from ambient under heating held at most P the
-    fiber never passes this temperature (nor, for negative P, falls below it).
-    """
+    heating = balance.gain * power  # W, heating the fiber
     if heating == 0.0:
         return balance.ambient
     direction = math.copysign(1.0, heating)
@@ -156,16 +71,16 @@ def equilibrium_bound(heating, balance):
     return balance.ambient + direction * high
 
 
-def rk4_substeps(intervals, heating, balance, start=None):
-    """Return the RK4 substeps (int array) of each interval (s) under ``heating`` (W).
+def rk4_substeps(intervals, power, balance, start=None):
+    """Return the RK4 substeps (int array) of each interval (s) under logged ``power`` (W).
 
     The fewest equal substeps with h lambda <= RK4_STEP_RATE, lambda = Q'(T) / m_t c_p
-    (1/s) at the hottest (and coldest) equilibrium the heating can reach, or at the
-    ``start`` temperature (degC) when that is hotter; Q' grows away from ambient, so
-    that bounds lambda over the record.
+    (1/s, thermal.heat_loss_slope) at the hottest (and coldest) equilibrium the
+    power can reach, or at the ``start`` temperature (degC) when that is hotter; Q'
+    grows away from ambient, so that bounds lambda over the record.
     """
-    heating = np.asarray(heating, dtype=float)
-    extremes = {float(np.max(heating, initial=0.0)), float(np.min(heating, initial=0.0))}
+    power = np.asarray(power, dtype=float)
+    extremes = {float(np.max(power, initial=0.0)), float(np.min(power, initial=0.0))}
     hottest = [equilibrium_bound(p, balance) for p in extremes]
     if start is not None:
         hottest.append(start)
@@ -173,29 +88,30 @@ def rk4_substeps(intervals, heating, balance, start=None):
     return np.maximum(1, np.ceil(np.asarray(intervals) * rate / RK4_STEP_RATE)).astype(int)
 
 
-def nonlinear_thermal_response(time, heating, balance, rise=0.0):
-    """Return T (degC) at ``time`` (s) of eq. (1') under zero-order-hold heating (W).
+def nonlinear_thermal_response(time, power, balance, rise=0.0):
+    """Return T (degC) at ``time`` (s) of eq. (1') under zero-order-hold ``power`` (W).
 
-        m_t c_p dT/dt = P_in - Q(T),  T(0) = T_inf + rise
+        m_t c_p dT/dt = (1 - eta) r P - Q(T),  T(0) = T_inf + rise
 
-    ``heating`` is P_in over each interval [t_k, t_k+1) (already delayed and scaled
-    by the thermal effects); ``rise`` (K) the start's excess over ambient (0: at
-    rest). Radiation and nonlinear convection; rk4_substeps equal RK4 substeps per
-    interval.
+    ``power`` is the logged power over each interval [t_k, t_k+1) (already delayed
+    by the dead time), ``balance`` the thermal.HeatBalance of the TCA (the thermal
+    effects: radiation, nonlinear convection, the power ratio and loss), ``rise``
+    (K) the start's excess over ambient (0: at rest). thermal.heat_step_rk4 with
+    rk4_substeps equal substeps per interval.
     """
     time = np.asarray(time, dtype=float)
-    heating = np.asarray(heating, dtype=float)
+    power = np.asarray(power, dtype=float)
     out = np.empty(time.size)
     if time.size == 0:
         return out
     out[0] = balance.ambient + rise
     intervals = np.diff(time)
-    substeps = rk4_substeps(intervals, heating[:-1], balance, out[0] if rise > 0.0 else None)
-    held = heating[:-1]
+    substeps = rk4_substeps(intervals, power[:-1], balance, out[0] if rise > 0.0 else None)
+    held = power[:-1]
     if substeps.max(initial=1) > 1:
         intervals = np.repeat(intervals / substeps, substeps)
         held = np.repeat(held, substeps)
-    temps = rk4_thermal_march(float(out[0]), held.tolist(), intervals.tolist(), balance)
+    temps = heat_march_rk4(float(out[0]), held.tolist(), intervals.tolist(), balance)
     out[1:] = np.asarray(temps)[np.cumsum(substeps) - 1]
     return out
 

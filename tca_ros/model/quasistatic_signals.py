@@ -1,47 +1,61 @@
 """The thermal and input signals of the quasi-static reduction (quasistatic.py).
 
-Eq. (1) solved exactly under a zero-order-hold power (or, with radiation or
-nonlinear convection, by quasistatic_effects' RK4), the second thermal lag
-behind it, the first-order filter both use, and the drive's dead time as a
+Eq. (1) on a record's grid under a zero-order-hold power, with the coefficients
+and steps of thermal.py that the full dynamics takes: exact while it is linear
+(all intervals at once, a linear filter), Runge-Kutta with radiation or
+nonlinear convection (quasistatic_effects.py); the second thermal lag behind it,
+the first-order filter the lags use, and the drive's dead time as a
 heat-preserving delay of the held input. Plain arrays in and out: the
-diagnosis's lumped models use the same filters.
+calibration's lumped models use the same filters.
 """
 import math
 
 import numpy as np
 from scipy.signal import lfilter
 
-from tca_ros.model import effects as fx
 from tca_ros.model import quasistatic_effects as qe
-from tca_ros.model.thermal import heat_capacity, thermal_conductance
+from tca_ros.model.thermal import HeatBalance
+
+#: Relative spread of the intervals below which a grid is taken as uniform (one filter).
+UNIFORM_SPREAD = 1e-9
 
 
 def thermal_response(time, power, params):
     """Return T (degC) at ``time`` (s) under zero-order-hold ``power`` (W), eq. (1).
 
-    Exact for the linear eq. (1): over each interval the temperature relaxes to
-    T_inf + P_in / (h c_s A_0) with the time constant m_t c_p / (h c_s A_0). P_in
-    is the logged power times ``thermal.delivered_power_ratio`` and (1 - power
-    loss), delayed by ``effects.dead_time`` when set; the start is
-    ``thermal.initial_temperature_rise`` (K) above ambient, an excess that decays
-    with the same time constant (superposition). With radiation or nonlinear
-    convection, eq. (1') of quasistatic_effects (RK4) from that start.
+    The logged power heats the fiber through thermal.HeatBalance: P_in = (1 - eta) r
+    P (``thermal.delivered_power_ratio``, the power loss), delayed by
+    ``effects.dead_time`` when set; the start is ``thermal.initial_temperature_rise``
+    (K) above ambient. While eq. (1) is linear, its exact step
+    (thermal.heat_step_exact) over every interval at once: the temperature relaxes to
+    T_inf + P_in / (h c_s A_0) with the time constant m_t c_p / (h c_s A_0), a linear
+    filter, and the start's excess decays with the same time constant
+    (superposition). With radiation or nonlinear convection, eq. (1') by the
+    stepper's Runge-Kutta step (quasistatic_effects).
     """
     time = np.asarray(time, dtype=float)
-    heating = fx.heating_power(np.asarray(power, dtype=float), params.effects,
-                               params.thermal.delivered_power_ratio)
-    heating = delayed_input(time, heating, params.effects.dead_time)
-    balance = qe.HeatBalance.of(params)
+    balance = HeatBalance.of(params)
+    power = np.asarray(power, dtype=float)
     rise = params.thermal.initial_temperature_rise
     if not balance.linear:
-        return qe.nonlinear_thermal_response(time, heating, balance, rise)
-    conductance = thermal_conductance(params.fiber, params.thermal)
-    tau = heat_capacity(params.fiber) / conductance
-    ambient = fx.true_ambient(params.thermal, params.effects)
-    response = ambient + first_order_response(time, heating / conductance, tau)
+        delayed = delayed_input(time, power, params.effects.dead_time)
+        return qe.nonlinear_thermal_response(time, delayed, balance, rise)
+    heating = delayed_input(time, balance.gain * power, params.effects.dead_time)  # W, P_in
+    tau = balance.capacity / balance.conductance  # s
+    response = balance.ambient + first_order_response(time, heating / balance.conductance, tau)
     if rise > 0.0 and time.size:
         response = response + rise * np.exp(-(time - time[0]) / tau)
     return response
+
+
+def uniform_step(time):
+    """Return the step (s) of a uniform time grid (s), or None if its steps differ.
+
+    Steps equal within UNIFORM_SPREAD of their mean count as uniform (a grid built
+    by ``np.arange`` or read from a log differs in its last digits).
+    """
+    dt = np.diff(time)
+    return float(dt[0]) if dt.size and np.ptp(dt) <= UNIFORM_SPREAD * dt.mean() else None
 
 
 def actuating_temperature(time, temperature, params):
@@ -72,13 +86,14 @@ def first_order_response(time, target, tau, held=True):
     dt = np.diff(time)
     if tau <= 0.0:
         return target.copy() if not held else np.concatenate(([0.0], target[:-1]))
-    if np.ptp(dt) <= 1e-9 * dt.mean():
-        a = math.exp(-dt[0] / tau)
+    step = uniform_step(time)
+    if step is not None:
+        a = math.exp(-step / tau)
         if held:
             out[1:] = lfilter([1.0 - a], [1.0, -a], target[:-1])
         else:
             # y_{k+1} = a y_k + (1 - a) u_{k+1} - (a - c)(u_{k+1} - u_k), c = (1 - a) tau / dt
-            c = (1.0 - a) * tau / dt[0]
+            c = (1.0 - a) * tau / step
             b0, b1 = 1.0 - c, c - a
             out[1:] = lfilter([b0, b1], [1.0, -a], target[1:], zi=[b1 * target[0]])[0]
         return out

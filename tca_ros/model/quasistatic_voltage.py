@@ -3,8 +3,8 @@
 Under a voltage supply the heating power follows the resistance (eq. (1) with
 the electrical law of resistance.py), which follows the temperature and the
 elongation, so eq. (1) cannot be filtered in one pass: it is stepped sample by
-sample (Heun on 1/R), with the static maps of a QuasiStaticPlant (quasistatic.py)
-read from a fine table.
+sample (Heun on 1/R) by the steps of thermal.py the full dynamics takes, with the
+static maps of a QuasiStaticPlant (quasistatic.py) read from a fine table.
 """
 import math
 
@@ -15,7 +15,8 @@ from tca_ros.model import quasistatic_effects as qe
 from tca_ros.model.quasistatic_signals import delayed_input
 from tca_ros.model.resistance import resistance
 from tca_ros.model.static_maps import MAP_EXTENSION, MAP_MARGIN
-from tca_ros.model.thermal import heat_capacity, thermal_conductance
+from tca_ros.model.thermal import heat_decay, heat_march_rk4, heat_step_exact, HeatBalance, \
+    lag_step
 
 VOLTAGE_TABLE_STEP = 0.1  # K, fine table of the static map read by the voltage-drive loop
 VOLTAGE_POWER_MARGIN = 2.0  # bound on P R0 / R over P (RK4 substeps of a voltage supply)
@@ -27,8 +28,9 @@ def voltage_drive(plant, time, power, acting, creep):
     ``plant``: the QuasiStaticPlant whose static maps are read; ``time`` (s),
     logged ``power`` (W) and the ``acting`` load (N) per sample.
 
-    Sample by sample: exact per step while eq. (1) is linear, RK4
-    (quasistatic_effects) with radiation or nonlinear convection. The static
+    Sample by sample: thermal.heat_step_exact while eq. (1) is linear,
+    thermal.heat_step_rk4 (substeps of quasistatic_effects) with radiation or
+    nonlinear convection, thermal.lag_step for the second lag. The static
     maps are sampled once on a fine temperature grid (VOLTAGE_TABLE_STEP) and
     read by linear interpolation in the loop, at the actuation temperature
     (play operator with hysteresis); R(T, x) sees the end with the creep
@@ -37,12 +39,11 @@ def voltage_drive(plant, time, power, acting, creep):
     """
     p = plant.params
     e, effects = p.electrical, p.effects
-    conductance = thermal_conductance(p.fiber, p.thermal)
-    decay = np.exp(-np.diff(time) * conductance / heat_capacity(p.fiber))
+    balance = HeatBalance.of(p)
+    intervals = np.diff(time)
+    decay = heat_decay(intervals, balance)
     lag = effects.second_thermal_lag
-    lag_decay = np.exp(-np.diff(time) / lag) if lag > 0.0 else None
-    nominal = delayed_input(time, fx.heating_power(
-        power, effects, p.thermal.delivered_power_ratio), effects.dead_time)
+    nominal = delayed_input(time, np.asarray(power, dtype=float), effects.dead_time)  # W at R0
     y_ref = plant.reference_elongation(float(acting[0]))
     length = plant.kinetostatics.natural_length + y_ref
     t0 = p.thermal.ambient_temperature
@@ -51,8 +52,6 @@ def voltage_drive(plant, time, power, acting, creep):
     fiber = np.full(n, plant.ambient)
     width = effects.hysteresis_width
     actuation = fiber if width <= 0.0 else np.full(n, plant.ambient)  # degC, play output
-    balance = qe.HeatBalance.of(p)
-    intervals = np.diff(time)
     substeps = None if balance.linear else qe.rk4_substeps(
         intervals, VOLTAGE_POWER_MARGIN * nominal[:-1], balance)
     y_eq = np.empty(n)
@@ -83,16 +82,14 @@ def voltage_drive(plant, time, power, acting, creep):
         return y[i] + w * (y[i + 1] - y[i]), k[i] + w * (k[i + 1] - k[i])
 
     def advance(k, inverse_r):
-        heating = nominal[k] * e.resistance * inverse_r
+        drive = nominal[k] * e.resistance * inverse_r  # W, logged: P R0 / R(T, x)
         if substeps is None:
-            target = plant.ambient + heating / conductance
-            temp[k + 1] = target + (temp[k] - target) * decay[k]
+            temp[k + 1] = heat_step_exact(temp[k], drive, decay[k], balance)
         else:
             m = int(substeps[k])
-            temp[k + 1] = qe.rk4_thermal_march(float(temp[k]), (float(heating),) * m,
-                                               (intervals[k] / m,) * m, balance)[-1]
-        fiber[k + 1] = (temp[k + 1] if lag_decay is None else
-                        temp[k + 1] + (fiber[k] - temp[k + 1]) * lag_decay[k])
+            temp[k + 1] = heat_march_rk4(float(temp[k]), (float(drive),) * m,
+                                         (intervals[k] / m,) * m, balance)[-1]
+        fiber[k + 1] = lag_step(fiber[k], temp[k + 1], intervals[k], lag)
         if actuation is not fiber:
             actuation[k + 1] = fx.play_operator(fiber[k + 1], actuation[k], width)
         y_eq[k + 1], stiffness[k + 1] = lookup(float(acting[k + 1]), actuation[k + 1])

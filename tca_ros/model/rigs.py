@@ -4,7 +4,7 @@ The dynamics (18) of [1] loads the TCA with a dead weight. A controller meets ot
 rigs; each is written here as the equations that replace the right-hand side of
 (18), with q the elongation (m) of the free end from l* (stretching positive),
 f_rod(q, T) the kinetostatic force (N) and b_t the TCA's damping (N s/m).
-Parameters ``rig.*`` (params.py); derivations and checks: docs/rigs.md.
+Parameters ``rig.*`` (tca_params.py); derivations and checks: docs/rigs.md.
 
 dead_weight (eq. (18) as printed; ``dynamics.load`` or the load input F_w)::
 
@@ -57,7 +57,7 @@ from tca_ros.model.end_motion import central_difference_step, creep_step
 from tca_ros.model.kinetostatic_models import make_kinetostatic_model
 from tca_ros.model.kinetostatics import KinetostaticModel
 from tca_ros.model.kinetostatics import static_elongation
-from tca_ros.model.params import ParameterError, RIG_MODES
+from tca_ros.model.params_schema import ParameterError, RIG_MODES
 from tca_ros.model.substeps import central_difference_limit, MAX_SUBSTEPS
 from tca_ros.model.substeps import StabilityError, substep_count, SubstepPlan
 

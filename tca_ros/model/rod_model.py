@@ -25,10 +25,10 @@ from tca_ros.model.fiber import unit_untwist
 from tca_ros.model.kinetostatics import KinetostaticModel
 from tca_ros.model.limits import check_thread_strength, touching_pitch_angle
 from tca_ros.model.moduli import section_stiffness
-from tca_ros.model.params import EffectParams, RigParams
 from tca_ros.model.rod_table import _helix_state, _linear_stiffness, _natural_length
 from tca_ros.model.rod_table import build_table, helix_elongation  # noqa: F401 (API)
 from tca_ros.model.rod_table import RodTableError  # noqa: F401 (raised by the table)
+from tca_ros.model.tca_params import EffectParams, RigParams
 from tca_ros.rod.helix import helix_centreline
 from tca_ros.rod.reference import conical_spiral_reference, helix_reference
 from tca_ros.rod.statics import solve_continuation

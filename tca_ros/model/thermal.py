@@ -15,7 +15,9 @@ Each function takes floats (one muscle) or NumPy arrays of shape (N,) (one
 value per muscle) in one order of operations, so the scalar stepper
 (dynamics.py via thermal_step.py), the rigs (rigs.py), the batch stepper
 (toolkit/batch.py) and the linearisation (toolkit/state_equations.py) agree to
-the bit. The drive's dead time is in thermal_step.py.
+the bit; the quasi-static reduction (quasistatic_signals.py,
+quasistatic_voltage.py, quasistatic_effects.py) takes the same steps on a
+record's grid. The drive's dead time is in thermal_step.py.
 
 References
 ----------
@@ -173,6 +175,20 @@ def heat_step_rk4(temp, power, h, hb):
     k3 = heat_rate(temp + 0.5 * h * k2, power, hb)
     k4 = heat_rate(temp + h * k3, power, hb)
     return temp + h * (k1 + 2.0 * k2 + 2.0 * k3 + k4) / 6.0
+
+
+def heat_march_rk4(temp, powers, steps, hb):
+    """Return T (degC) after each step of eq. (1) from ``temp`` (degC), as a list.
+
+    heat_step_rk4 step after step: the logged power ``powers[j]`` (W) held over
+    ``steps[j]`` (s), sequences of floats (the quasi-static reduction's march on a
+    record's own grid, quasistatic_effects.py).
+    """
+    out = []
+    for power, h in zip(powers, steps):
+        temp = heat_step_rk4(temp, power, h, hb)
+        out.append(temp)
+    return out
 
 
 def lag_rate(value, target, tau):

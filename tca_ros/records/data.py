@@ -31,7 +31,7 @@ import re
 
 import numpy as np
 
-from tca_ros.model.params import SPECS
+from tca_ros.model.params_schema import SPECS
 from tca_ros.records.data_bag import read_bag_record
 # the bounds marked noqa are not used here: the CLI checks its options against them
 from tca_ros.records.record import ABSOLUTE_ZERO_DEGC, MAX_LOAD_N, MAX_POWER_W  # noqa: F401
@@ -83,7 +83,7 @@ def record_config(record):
     never any other path: a record is data, and only the command line may point
     the reader at arbitrary files. Raises DataError naming the header line.
     """
-    from tca_ros.model.params import shipped_configs
+    from tca_ros.params.config_search import shipped_configs
     name = str(record.meta.get('tca', '')).strip()
     folder = os.path.dirname(os.path.abspath(record.source)) if record.source else None
     plain = name not in ('', '.', '..') and os.path.basename(name) == name and \
@@ -337,7 +337,9 @@ def uniform_record(record, rate=None):
 def write_csv_record(record, path, comments=()):
     """Write ``record`` as a diagnosis CSV (header lines first, then columns).
 
-    ``comments`` are extra ``# text`` lines placed after the key lines.
+    ``comments`` are extra ``# text`` lines placed after the key lines; the
+    record's header entries beyond the required ones follow those (a ``key:``
+    line in ``comments`` takes the place of the entry of that key).
     """
     columns = ['time', 'power', 'load', 'displacement']
     arrays = [record.time, record.power, record.load, record.displacement]
@@ -354,6 +356,13 @@ def write_csv_record(record, path, comments=()):
     with open(path, 'w', encoding='utf-8') as fh:
         for key in REQUIRED_HEADER:
             fh.write(f'# {key}: {record.meta[key]}\n')
+        # the record's other header entries (its rig, environment, pretension, ...) are
+        # conditions of the run: written back, not lost
+        given = {str(line).split(':', 1)[0].strip() for line in comments}
+        for key, value in record.meta.items():
+            if key not in REQUIRED_HEADER and key not in given \
+                    and isinstance(value, (str, int, float)) and '\n' not in str(value):
+                fh.write(f'# {key}: {value}\n')
         for line in comments:
             fh.write(f'# {line}\n')
         fh.write(','.join(columns) + '\n')

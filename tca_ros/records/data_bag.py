@@ -12,7 +12,7 @@ import math
 
 import numpy as np
 
-from tca_ros.model.params import GRAVITY
+from tca_ros.model.params_schema import GRAVITY
 from tca_ros.records.record import clip, DataError, DISPLACEMENT, MIN_SAMPLES, Record, \
     TIME, VALUE_RANGES
 
@@ -146,7 +146,7 @@ def read_bag_record(path, sample_rate=None, tca='', mass_kg=None, load=None,
 
     mass = float(mass_kg) if mass_kg is not None else 0.0
     if load is None and tca:
-        from tca_ros.model.params import load_params
+        from tca_ros.params.files import load_params
         load = load_params(tca).dynamics.load
     initial_load = float(load) if load is not None else mass * GRAVITY
     power = hold(power_topic, 0.0)

@@ -10,7 +10,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from tca_ros.model.params import SPECS
+from tca_ros.model.params_schema import SPECS
 
 MIN_SAMPLES = 20  # fewer samples cannot be split into train and held-out parts
 MAX_POWER_W = 1e3  # power bound: 200x the node's default driver limit (max_power 5 W)

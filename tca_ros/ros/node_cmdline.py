@@ -11,9 +11,10 @@ import tempfile
 
 import rclpy
 from rclpy._rclpy_pybind11 import RCLError
+from rclpy.signals import SignalHandlerOptions
 import yaml
 
-from tca_ros.model.params import ParameterError
+from tca_ros.model.params_schema import ParameterError
 
 
 def ros_argument_rules(argv):
@@ -133,7 +134,8 @@ def init_quietly(args):
     with tempfile.TemporaryFile() as held:
         os.dup2(held.fileno(), 2)
         try:
-            rclpy.init(args=args)
+            # no rclpy signal handlers: node_spin.install_stop_handlers stops the spin
+            rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
         except RCLError as exc:
             reason = str(exc).replace('failed to initialize rcl: ', '').split(', at ')[0]
             raise ParameterError(' '.join(reason.split())) from None

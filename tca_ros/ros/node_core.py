@@ -2,11 +2,12 @@
 
 ``NodeCore`` is everything the node decides: the inputs (commands clamped, the load,
 a reset), the time (the physics caught up to a clock it is given, or a clock of its own
-ticked at real_time_factor; lockstep: one command per tick), scored tasks' bookkeeping
-and parameter changes (validated, then applied to a rebuilt or re-stepped simulator).
-Its physics and outputs are a tca_ros.ros.node_episode.Episode. The ROS shell
-(tca_ros.ros.node.TcaSimNode) turns messages and parameters into calls of it and its
-outputs (plain values) into messages; here it is only a few callables:
+ticked at real_time_factor; lockstep: one command per tick; both in node_clocks.py),
+scored tasks' bookkeeping and parameter changes (validated, then applied to a rebuilt
+or re-stepped simulator). Its physics and outputs are a
+tca_ros.ros.node_episode.Episode. The ROS shell (tca_ros.ros.node.TcaSimNode) turns
+messages and parameters into calls of it and its outputs (plain values) into
+messages; here it is only a few callables:
 
 - ``clock_ns()``: the ROS time (ns) in the node-clock modes;
 - ``publish_tick(now_ns)``: publish /clock and the state of a tick of the own clock;
@@ -17,23 +18,18 @@ Time modes and their rules: docs/node.md, "Time".
 """
 from dataclasses import dataclass
 import math
-import time
 
 import numpy as np
 
 from tca_ros.model.dynamics import StabilityError
-from tca_ros.model.params import from_flat_dict, ParameterError
+from tca_ros.model.params_schema import ParameterError
 from tca_ros.model.rigs import start_load
+from tca_ros.model.tca_params import from_flat_dict
+from tca_ros.ros.node_clocks import NodeClock, OwnClock
 from tca_ros.ros.node_episode import Episode, Log, non_finite
-from tca_ros.ros.node_schema import (build_simulator, physics_dt, physics_steps_per_tick, REBUILD,
-                                     validate_node_values)
+from tca_ros.ros.node_schema import build_simulator, physics_dt, REBUILD, validate_node_values
 from tca_ros.ros.node_tables import muscle_temperatures, table_rows
 
-NS = 1_000_000_000  # ns per s
-MAX_CATCH_UP = 1.0  # s of physics run at most per callback after a stall or a clock jump
-MAX_CATCH_UP_WALL = 0.2  # s of wall time a callback may spend stepping (services must answer)
-CATCH_UP_CHUNK = 50  # physics steps between checks of that wall-time budget
-FAST_BATCH = 0.02  # s of wall time spent ticking per callback at real_time_factor 0
 TASK_GAP = 2.0  # s of node time between a task's first state and the state before it
 
 
@@ -59,65 +55,6 @@ class Change:
     rebuilt: bool = False  # a new TCA: a new simulator at the node's load and temperature
 
 
-class NodeClock:
-    """The physics caught up to a clock it is given (modes without publish_clock).
-
-    At most MAX_CATCH_UP s of physics per call (more is skipped, with a warning) and
-    MAX_CATCH_UP_WALL s of wall time; a call that runs out of that budget pauses the
-    stepping for as long, so that services and commands are always served.
-    """
-
-    def __init__(self, log):
-        self._log = log
-        self.t0_ns = None  # ROS time (ns) of physics time 0
-        self.steps_done = 0
-        self.paused_until = 0.0  # monotonic s: no catch-up before (overload)
-
-    def rebase(self):
-        """Count physics time from the next call (a new step or simulator)."""
-        self.t0_ns, self.steps_done = None, 0
-
-    def catch_up(self, ep, now_ns):
-        """Step the Episode ep up to ``now_ns()`` (ROS time, ns)."""
-        now = now_ns()
-        if now == 0:  # use_sim_time and no /clock received yet
-            return
-        if self.t0_ns is None or now < self.t0_ns:
-            if self.t0_ns is not None:
-                self._log('warning', 'clock jumped backwards: physics time rebased')
-            self.t0_ns, self.steps_done = now, 0
-        dt = ep.sim.dt
-        n = int((now - self.t0_ns) / (dt * NS)) - self.steps_done
-        limit = int(MAX_CATCH_UP / dt)
-        if n > limit:
-            self._log('warning', f'physics {n * dt:.3g} s behind the clock: skipped to now',
-                      key='behind')
-            self.steps_done += n - limit
-            n = limit
-        if ep.physics_waits():  # a table row is being built: no physics meanwhile
-            self.steps_done += n
-            return
-        wall = time.monotonic()
-        if wall < self.paused_until:
-            # the last catch-up ran out of its budget: every callback (each command
-            # message steps too) would spend another budget and requests would wait
-            # behind them, so no stepping until the pause ends (physics skips to now)
-            self.steps_done += n
-            return
-        deadline = wall + MAX_CATCH_UP_WALL
-        for start in range(0, n, CATCH_UP_CHUNK):
-            if time.monotonic() > deadline:
-                # A physics_rate this machine cannot keep up with: drop physics time
-                # rather than leave services and commands waiting behind the stepper.
-                self._log('warning', f'physics {(n - start) * dt:.3g} s behind the clock '
-                          f'after {MAX_CATCH_UP_WALL:g} s of stepping: skipped to now (lower '
-                          'physics_rate?)', key='budget')
-                self.paused_until = time.monotonic() + MAX_CATCH_UP_WALL
-                break
-            ep.advance(min(CATCH_UP_CHUNK, n - start), now_ns())
-        self.steps_done += n
-
-
 class NodeCore:
     """The node's episode, inputs and time; see the module doc for the callables."""
 
@@ -125,19 +62,11 @@ class NodeCore:
                  republish=None, log=None, rig=None, task=None):
         self.owns_time = owns_time
         self._clock_ns = clock_ns
-        self._publish_tick = publish_tick
-        self._republish = republish
         self.log = log or Log()
         self.task = task or NoTask()
         self.episode = Episode(params, cfg, sim, self.log, rig)
         self.node_clock = NodeClock(self.log)  # the node-clock modes
-        self.sim_ns = 0  # own clock: the node's time
-        self.started = False
-        self.awaiting = False  # lockstep: a state awaits its command
-        self.await_deadline = 0.0  # monotonic s
-        self.wall_first_tick = None
-        self.wall_t0 = None
-        self.ticks_done = 0
+        self.own_clock = OwnClock(self.episode, self.task, publish_tick, republish, self.log)
 
     @property
     def cfg(self):
@@ -146,7 +75,7 @@ class NodeCore:
 
     def now_ns(self):
         """Return the node time (ns): the own clock with publish_clock, else the ROS clock."""
-        return self.sim_ns if self.owns_time else self._clock_ns()
+        return self.own_clock.sim_ns if self.owns_time else self._clock_ns()
 
     # -- inputs -------------------------------------------------------------------------
     def valid(self, topic, value):
@@ -172,16 +101,8 @@ class NodeCore:
             self._command('voltage', value)
 
     def _command(self, kind, value):
-        task = self.task
-        if task.queued and self.awaiting:
-            self.awaiting = False  # the answer to the state before the task
-            task.start()
-            return
-        task.extra += task.active and self.started and not self.awaiting
-        self.episode.commands.set(kind, value, self.command_time())
-        if self.awaiting:
-            self.awaiting = False
-            self.run_ticks()
+        self.own_clock.command(
+            lambda: self.episode.commands.set(kind, value, self.command_time()))
 
     def command_time(self):
         """Return the node time (ns) of a command, the physics caught up to it."""
@@ -212,7 +133,7 @@ class NodeCore:
     def muscle_state(self, now_ns=None):
         """Return the MuscleState of /diagnostics, with what the physics waits for."""
         if self.owns_time:
-            waiting = '' if self.started else (
+            waiting = '' if self.own_clock.started else (
                 'a controller (lockstep)' if self.cfg['lockstep'] else 'the first tick')
         else:  # the clock read costs ~10 us: a tick passes its own time
             now = self.now_ns() if now_ns is None else now_ns
@@ -227,76 +148,11 @@ class NodeCore:
     # -- own clock ----------------------------------------------------------------------
     def retimed(self):
         """Restart the real-time pacing (a new tick timer): ticks due count from now."""
-        self.wall_t0, self.ticks_done = None, 0
+        self.own_clock.retimed()
 
     def clock_tick(self, peers_matched):
         """Tick the own clock at real_time_factor; ``peers_matched()``: a controller is there."""
-        task = self.task
-        if task.queued and (not self.awaiting or time.monotonic() >= self.await_deadline):
-            task.start()
-        if task.holding:
-            return
-        if not self.started:
-            if self.cfg['lockstep'] and not peers_matched():
-                return
-            self.started = True
-            self.wall_first_tick = time.monotonic()
-            self._tick()
-            return
-        if self.awaiting:
-            if time.monotonic() < self.await_deadline:
-                return
-            if self.episode.commands.last_ns is None:
-                # The controller's reader may not have matched yet when the first state
-                # went out: repeat it (same values) rather than advance without a reply.
-                self._republish()
-                self.await_deadline = time.monotonic() + self.cfg['lockstep_timeout']
-                return
-            self.log('warning', f'lockstep: no command within {self.cfg["lockstep_timeout"]:g} '
-                     's: advancing with the last one', key='lockstep')
-            self.awaiting = False
-            task.missed += task.active
-        self.run_ticks()
-
-    def run_ticks(self):
-        """Run the ticks that are due (or a wall-time batch at factor 0)."""
-        ep, cfg = self.episode, self.cfg
-        rtf = cfg['real_time_factor']
-        tick_s = 1.0 / cfg['publish_rate']
-        start = time.monotonic()
-        if self.wall_t0 is None:
-            self.wall_t0, self.ticks_done = start, 0
-        while not self.awaiting:
-            if rtf == 0.0:
-                if time.monotonic() - start > FAST_BATCH:
-                    break
-            else:
-                due = int((time.monotonic() - self.wall_t0) * rtf / tick_s)
-                if self.ticks_done >= due:
-                    break
-                if due - self.ticks_done > MAX_CATCH_UP / tick_s:
-                    self.wall_t0 = time.monotonic() - self.ticks_done * tick_s / rtf
-            if ep.physics_waits():  # the clock holds until the table row is built
-                break
-            if self.task.at_end():
-                self.task.finish(ep.command_power(self.sim_ns), ep.broken)
-                return
-            self.ticks_done += 1
-            ep.advance(physics_steps_per_tick(cfg), self.sim_ns)
-            self.sim_ns += round(tick_s * NS)
-            self._tick()
-
-    def _tick(self):
-        """Publish a tick (its load and stamped reference first in a task); lockstep: wait."""
-        ep, task = self.episode, self.task
-        if task.active:
-            ep.load = task.before_state(self.sim_ns)
-        self._publish_tick(self.sim_ns)
-        if task.active:
-            task.after_state(ep.sample.displacement, ep.sample.temperature, ep.power)
-        if self.cfg['lockstep']:
-            self.awaiting = True
-            self.await_deadline = time.monotonic() + self.cfg['lockstep_timeout']
+        self.own_clock.tick(peers_matched)
 
     def start_task(self, load):
         """Start a task: the loaded equilibrium at ambient under load (N), TASK_GAP on."""
@@ -306,21 +162,17 @@ class NodeCore:
         ep.load = load
         ep.reset()
         ep.commands.clear()
-        self.sim_ns += round(TASK_GAP * NS)
-        self.wall_t0 = None
-        self.started = self.awaiting = False
+        self.own_clock.skip(TASK_GAP)
 
     def time_summary(self):
         """Return (sim s, wall s) since the first tick of the own clock, or None."""
-        if not self.owns_time or self.wall_first_tick is None:
-            return None
-        return self.sim_ns / NS, time.monotonic() - self.wall_first_tick
+        return self.own_clock.summary() if self.owns_time else None
 
     # -- parameters ---------------------------------------------------------------------
     def reconfigure(self, tca_values, node_values, changed):
         """Validate and apply new parameter values; return a Change (never raises for input).
 
-        ``tca_values`` maps every TCA parameter (model.params SCHEMA) to its value,
+        ``tca_values`` maps every TCA parameter (params_schema.SCHEMA) to its value,
         ``node_values`` every node parameter; ``changed`` names those just set. A new
         TCA rebuilds the simulator at the node's load and temperature; a new step
         (physics_rate, publish_rate) keeps the whole state.
@@ -354,7 +206,7 @@ class NodeCore:
         if cfg['noise.seed'] != old_cfg['noise.seed']:
             ep.rng = np.random.default_rng(int(cfg['noise.seed']))
         if not cfg['lockstep']:
-            self.awaiting = False
+            self.own_clock.release()
         return Change(True, retime=any(cfg[k] != old_cfg[k] for k in (
             'publish_rate', 'real_time_factor', 'lockstep')), rebuilt=new_tca)
 

@@ -4,8 +4,9 @@
 limits (max_power clamp, watchdog, max_temperature, melt_temperature), turns a thread
 break into a physical event and any other failure of a step into a held, broken
 muscle, and samples the outputs (with the configured sensor noise) as plain values.
-``Commands`` holds the last valid command and the watchdog. The node's clock and its
-inputs are in tca_ros.ros.node_core; the ROS shell in tca_ros.ros.node (docs/node.md).
+``Commands`` holds the last valid command and the watchdog. The node's inputs are in
+tca_ros.ros.node_core, its clocks in tca_ros.ros.node_clocks; the ROS shell in
+tca_ros.ros.node (docs/node.md).
 """
 from dataclasses import dataclass
 import math

@@ -18,7 +18,7 @@ from visualization_msgs.msg import Marker
 
 from tca_ros.model.kinetostatic_models import centreline as rod_centreline
 from tca_ros.model.kinetostatics import fixed_coil_centreline
-from tca_ros.ros.node_core import NS
+from tca_ros.ros.node_clocks import NS
 
 STATE_QOS = QoSProfile(depth=10)  # reliable: serves reliable and best-effort readers
 SHAPE_QOS = QoSProfile(depth=1)

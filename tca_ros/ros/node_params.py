@@ -17,7 +17,7 @@ from rclpy.exceptions import ParameterNotDeclaredException
 from rclpy.parameter import Parameter
 from rclpy.parameter_service import ParameterService
 
-from tca_ros.model.params import check_value, ParameterError, SCHEMA, SPECS
+from tca_ros.model.params_schema import check_value, ParameterError, SCHEMA, SPECS
 from tca_ros.ros.node_schema import (  # noqa: F401  (re-exported: the node's parameter API)
     build_simulator, NAMESPACED, namespaced_name, NODE_SCHEMA, NODE_SPECS, physics_dt,
     physics_steps_per_tick, READ_ONLY, REBUILD, validate_node_values)

@@ -20,7 +20,7 @@ from sensor_msgs.msg import Temperature
 from std_msgs.msg import Float64
 
 from tca_ros.model.rigs import ANTAGONISTIC, ISOMETRIC, SPRING
-from tca_ros.ros.node_core import NS
+from tca_ros.ros.node_clocks import NS
 from tca_ros.ros.node_episode import WARN_PERIOD
 from tca_ros.ros.node_outputs import COMMAND_QOS, STATE_QOS  # as the node's own topics
 

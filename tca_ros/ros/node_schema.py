@@ -1,13 +1,14 @@
 """The ``tca`` node's own parameters: schema, cross-parameter rules, the simulator they build.
 
 Plain Python (no rclpy): the node's parameters (NODE_SCHEMA) sit beside the TCA schema
-of tca_ros.model.params and are checked by the same ``check_value``; everything here
+of tca_ros.model.params_schema and are checked by the same ``check_value``; everything here
 turns bad input into one line naming the field, the value and what is allowed.
 tca_ros.ros.node_params adds what rclpy needs (descriptors, guarded parameter services).
 """
 from tca_ros.model.dynamics import StabilityError
-from tca_ros.model.params import check_value, ParameterError, ParamSpec, SPECS, to_flat_dict
+from tca_ros.model.params_schema import check_value, ParameterError, ParamSpec, SPECS
 from tca_ros.model.rigs import make_rig
+from tca_ros.model.tca_params import to_flat_dict
 
 #: Node parameters (beside the TCA SCHEMA); validated with the same check_value.
 NODE_SCHEMA = (

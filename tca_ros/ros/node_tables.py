@@ -1,24 +1,30 @@
-"""The rows of a conical rod table, built off the node's executor.
+"""The rows of a conical rod table, built off the node's executor and out of its process.
 
 The conical TCA's rod table (tca_ros.model.conical_table) builds a temperature row
-(10 K) the first time a query needs it, in 1 to 2 s of rod solves (cached on disk for
-the next start). Built inside a physics step, that stops the node's outputs and
-services for as long. ``TableRows`` builds them on a worker thread instead, nearest
-the muscle's temperature first, until the table is complete; the node asks
+(10 K) the first time a query needs it, in 1 to 2 s of rod solves (kept on disk for
+the next start by tca_ros.params.row_cache). Built inside a physics step, that stops
+the node's outputs and services for as long. ``TableRows`` has them built on a worker
+thread instead, nearest the muscle's temperature first, until the table is complete; the node asks
 ``missing(temperatures)`` before each step and holds the physics (outputs and services
-go on) while a row it would use is not ready. A helical TCA's tables are built whole
-when the model is made: nothing to do then. No rclpy here.
+go on) while a row it would use is not ready. The worker thread only waits: the rod
+solves run in a child process (``RowProcess``, ``python -m tca_ros.ros.node_tables``),
+so they take neither the node's interpreter lock nor its CPU time slice (solved in a
+thread of the node, they stretched the gaps between its outputs to 50-70 ms on a loaded
+machine, docs/node.md). A helical TCA's tables are built whole when the model is made:
+nothing to do then. No rclpy here.
 """
+import atexit
 import math
+import os
+import pickle
+import subprocess
 import sys
 import threading
 
 from tca_ros.model.conical_table import cached_conical_model
 
 MARGIN_ROWS = 1  # rows beyond those the temperatures use now (~10 K of headroom)
-#: s, Python's thread switch interval while the worker runs (default 5 ms): the executor
-#: thread then waits at most this long for the GIL at each of its wake-ups.
-SWITCH_INTERVAL = 5e-4
+PACKAGE_ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 
 def muscle_temperatures(sim):
@@ -34,8 +40,69 @@ def muscle_temperatures(sim):
 
 def table_rows(params):
     """Return the TableRows of a TCA: its conical rod table's, or a no-op for a helix."""
-    conical = params.coil.shape == 'conical'
-    return TableRows(cached_conical_model(params).table if conical else None)
+    if params.coil.shape != 'conical':
+        return TableRows(None)
+    return TableRows(cached_conical_model(params).table, lambda: RowProcess(params))
+
+
+class RowProcess:
+    """A child process that solves the rows of one conical TCA's rod table.
+
+    It reads the params, then row indices, from its stdin and answers each with
+    ('row', ConicalRow) or ('error', one line), writing the disk cache as
+    ``ConicalTable.row`` does. It runs in a session of its own (a terminal's Ctrl-C
+    goes to the node, which stops it) and ends when its stdin closes.
+    """
+
+    def __init__(self, params):
+        env = dict(os.environ, PYTHONPATH=os.pathsep.join(
+            [PACKAGE_ROOT] + [p for p in os.environ.get('PYTHONPATH', '').split(os.pathsep)
+                              if p]))
+        self._proc = subprocess.Popen(
+            [sys.executable, '-m', 'tca_ros.ros.node_tables'], stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE, env=env, start_new_session=True)
+        atexit.register(self.close)
+        self._send(params)
+
+    def _send(self, value):
+        pickle.dump(value, self._proc.stdin)
+        self._proc.stdin.flush()
+
+    def build(self, i):
+        """Return ConicalRow i, solved in the child; raise RuntimeError on its failure."""
+        try:
+            self._send(i)
+            kind, value = pickle.load(self._proc.stdout)
+        except (OSError, EOFError, pickle.UnpicklingError) as exc:
+            raise RuntimeError(f'the row process ended ({type(exc).__name__})') from None
+        if kind == 'error':
+            raise RuntimeError(value)
+        return value
+
+    def close(self):
+        """End the child now (a row it is solving is dropped)."""
+        if self._proc.poll() is None:
+            self._proc.kill()
+            self._proc.wait()
+        for pipe in (self._proc.stdin, self._proc.stdout):
+            pipe.close()
+
+
+def serve_rows(stdin, stdout):
+    """Answer row indices from ``stdin`` until it closes (the child of RowProcess)."""
+    import tca_ros.params  # noqa: F401  (installs the disk cache: rows kept for the next start)
+    try:
+        table = cached_conical_model(pickle.load(stdin)).table
+        while True:
+            i = pickle.load(stdin)
+            try:
+                reply = ('row', table.row(i))
+            except Exception as exc:  # noqa: B902  the node reports it in one line
+                reply = ('error', f'{type(exc).__name__}: {exc}'.splitlines()[0])
+            pickle.dump(reply, stdout)
+            stdout.flush()
+    except (EOFError, OSError, KeyboardInterrupt):
+        return  # the node closed the pipes or ended
 
 
 class TableRows:
@@ -46,10 +113,17 @@ class TableRows:
     table : ConicalTable or None
         The table (its ``temp0`` and ``temp_step`` in degC, ``n_temp`` rows and
         ``row(i)``, which builds row i on first use); None: nothing to build.
+    builder : callable or None
+        Returns an object whose ``build(i)`` solves row i elsewhere and ``close()``
+        ends it (RowProcess); the worker then takes rows from the table's cache
+        (``cached_row``) or the builder and hands them to ``insert``. None: the worker
+        calls ``table.row(i)`` itself.
     """
 
-    def __init__(self, table):
+    def __init__(self, table, builder=None):
         self._table = table
+        self._new_builder = builder
+        self._builder = None
         self._ready = set()  # row indices in memory (written by one thread at a time)
         self._around = None  # row index the worker builds around
         self._wake = threading.Condition()
@@ -98,16 +172,17 @@ class TableRows:
             self._table.row(i)
             self._ready.add(i)
         self._around = first
-        if not self.complete:
-            sys.setswitchinterval(min(sys.getswitchinterval(), SWITCH_INTERVAL))
         self._thread = threading.Thread(target=self._run, name='tca_table_rows', daemon=True)
         self._thread.start()
 
     def stop(self):
-        """Stop the worker after the row it is building (it is a daemon thread)."""
+        """Stop the worker (a daemon thread) and end the builder's process."""
         with self._wake:
             self._stopped = True
             self._wake.notify()
+            builder, self._builder = self._builder, None
+        if builder is not None:
+            builder.close()
 
     @property
     def complete(self):
@@ -129,10 +204,33 @@ class TableRows:
                     return
                 i = self._next_row()
             if i is None:
+                self.stop()  # the table is complete: its process is no longer needed
                 return
             try:
-                self._table.row(i)
+                self._build(i)
             except Exception as exc:  # noqa: B902  the physics reports it when it gets there
-                self.error = f'{type(exc).__name__}: {exc}'.splitlines()[0]
+                if not self._stopped:
+                    self.error = f'{type(exc).__name__}: {exc}'.splitlines()[0]
                 return
             self._ready.add(i)
+
+    def _build(self, i):
+        """Bring row i into the table: from its cache, the builder's process, or here."""
+        if self._new_builder is None:
+            self._table.row(i)
+            return
+        if self._table.cached_row(i) is not None:
+            return
+        with self._wake:
+            if self._stopped:
+                raise RuntimeError('stopped')
+            if self._builder is None:
+                self._builder = self._new_builder()
+            builder = self._builder
+        self._table.insert(i, builder.build(i))
+
+
+if __name__ == '__main__':
+    answers = os.fdopen(os.dup(sys.stdout.fileno()), 'wb')
+    os.dup2(sys.stderr.fileno(), sys.stdout.fileno())  # a stray print goes to stderr
+    serve_rows(sys.stdin.buffer, answers)

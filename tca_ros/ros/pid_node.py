@@ -21,11 +21,12 @@ from rclpy.duration import Duration
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.qos import QoSProfile
+from rclpy.signals import SignalHandlerOptions
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64
 
 from tca_ros.ros.node_params import namespaced_name
-from tca_ros.ros.node_spin import spin_resiliently
+from tca_ros.ros.node_spin import install_stop_handlers, spin_resiliently
 
 COMMAND_QOS = QoSProfile(depth=10)
 FEEDBACK_QOS = QoSProfile(depth=10)
@@ -257,7 +258,8 @@ def _check_limits(min_power, max_power):
 
 def main(args=None):
     """Run the ``tca_pid`` node."""
-    rclpy.init(args=args)
+    install_stop_handlers()  # SIGINT and SIGTERM stop the spin, not rclpy
+    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
     node = None
     try:
         node = TcaPidNode()

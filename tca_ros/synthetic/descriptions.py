@@ -18,7 +18,7 @@ h c_s A_0 of eq. (1) (through fiber.specific_heat and thermal.convection_coeffic
 the actuation gain (fiber.untwist_gain), the moduli E and G, the damping b_t of eq. (18)
 and the delivered power ratio. The geometry is the truth's in all three.
 """
-from tca_ros.model.params import SPECS
+from tca_ros.model.params_schema import SPECS
 
 TIGHTNESS = ('exact', 'rough', 'guessed')
 EXACT_SPREAD = (0.02, 0.05)  # -, relative uncertainty of a measured value

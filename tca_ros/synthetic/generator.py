@@ -17,8 +17,9 @@ from tca_ros.model.effects import CATALOGUE, true_ambient
 from tca_ros.model.kinetostatic_models import make_kinetostatic_model
 from tca_ros.model.kinetostatics import loaded_length
 from tca_ros.model.kinetostatics import pitch_angle_of_length
-from tca_ros.model.params import GRAVITY, load_params
+from tca_ros.model.params_schema import GRAVITY
 from tca_ros.model.simulation import simulate
+from tca_ros.params.files import load_params
 from tca_ros.records.data import Record
 
 #: Physical magnitude ranges the generator draws from: dotted name -> (low, high, log).

@@ -19,9 +19,10 @@ from tca_ros.calibration.calibration import apply_calibration
 from tca_ros.calibration.calibration_parameters import expansion_zero
 from tca_ros.calibration.predictions import record_params
 from tca_ros.model.effects import CATALOGUE, true_ambient
-from tca_ros.model.params import dump_params, GRAVITY, load_params
+from tca_ros.model.params_schema import GRAVITY
 from tca_ros.model.simulation import simulate
 from tca_ros.model.thermal import heat_capacity, thermal_conductance
+from tca_ros.params.files import dump_params, load_params
 from tca_ros.records.data import Record, write_csv_record
 from tca_ros.synthetic.generator import draw_effect_values, random_power_profile
 

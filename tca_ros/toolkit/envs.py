@@ -27,9 +27,10 @@ from gymnasium import spaces
 import numpy as np
 
 from tca_ros.model.dynamics import TcaSimulator
-from tca_ros.model.params import load_params, TcaParams
 from tca_ros.model.resistance import power_from_voltage
 from tca_ros.model.simulation import static_displacement
+from tca_ros.model.tca_params import TcaParams
+from tca_ros.params.files import load_params
 
 ENV_ID = 'TcaTracking-v0'
 OBSERVABLES = ('displacement', 'velocity', 'temperature', 'resistance')

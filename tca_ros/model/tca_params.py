@@ -1,31 +1,18 @@
-"""TCA parameters: one schema, loaded from ROS params-file YAML and validated.
+"""TCA parameters: the typed, validated parameter set of one TCA (TcaParams).
 
 Every parameter has a dotted name (``fiber.radius``), a unit, an allowed range and
-a description. The same schema validates the YAML read by the CLI and declares the
-ROS parameters of the node, so a TCA is described in exactly one place: the files
-in ``config/``.
-
-A params file has the ROS 2 layout::
-
-    /**/tca:
-      ros__parameters:
-        fiber:
-          radius: 0.00021
-        ...
-
-Values missing from a file take the schema default (the paper's free-stroke TCA).
-The schema itself (names, units, ranges, the check of one value) is in
-params_schema.py; its names are importable from here too.
+a description in the schema (params_schema.py); from_flat_dict checks a
+``{dotted_name: value}`` mapping against it, fills gaps with the schema defaults
+(the paper's free-stroke TCA) and builds the typed groups below, and
+to_flat_dict writes them back. The params files that describe a TCA (``config/``)
+are read and written above the model, by tca_ros.params.files; the node declares
+its ROS parameters from the same schema.
 """
 from dataclasses import dataclass, field, fields, replace
 import math
-import os
-
-import yaml
 
 from tca_ros.model.params_checks import check_consistency
-from tca_ros.model.params_schema import check_value, GRAVITY, MODELS, NODE_NAME, \
-    ParameterError, ParamSpec, RIG_MODES, SCHEMA, SHAPES, SPECS, TCA_TYPES  # noqa: F401
+from tca_ros.model.params_schema import check_value, ParameterError, SCHEMA, SPECS
 from tca_ros.model.reference_state import resolve_reference
 
 
@@ -274,107 +261,6 @@ def to_flat_dict(params):
                 value = list(value)
             out[spec.name] = value
     return out
-
-
-def flatten(tree, prefix=''):
-    """Flatten nested dicts to dotted names, as rclpy does for params files."""
-    out = {}
-    for key, value in tree.items():
-        name = f'{prefix}{key}'
-        if isinstance(value, dict):
-            out.update(flatten(value, name + '.'))
-        else:
-            out[name] = value
-    return out
-
-
-def ros_parameters(document, path='<yaml>'):
-    """Return the flat ``ros__parameters`` of the ``tca`` node in a params-file document."""
-    if not isinstance(document, dict):
-        raise ParameterError(f'{path}: not a ROS params file (top level must be a mapping)')
-    for node_key, body in document.items():
-        name = str(node_key).rstrip('/').rsplit('/', 1)[-1]
-        if name in (NODE_NAME, '**', '*') and isinstance(body, dict) \
-                and 'ros__parameters' in body:
-            return flatten(body['ros__parameters'] or {})
-    raise ParameterError(
-        f"{path}: no '/**/tca: ros__parameters:' section (ROS 2 params-file layout)")
-
-
-def config_dir():
-    """Return the directory holding the shipped params files."""
-    here = os.path.dirname(os.path.abspath(__file__))
-    candidates = [os.path.join(here, '..', '..', 'config')]
-    prefix = os.environ.get('VIRTUAL_ENV') or ''
-    candidates.append(os.path.join(prefix, 'share', 'tca_ros', 'config'))
-    for prefix in os.environ.get('AMENT_PREFIX_PATH', '').split(os.pathsep):
-        if prefix:
-            candidates.append(os.path.join(prefix, 'share', 'tca_ros', 'config'))
-    for c in candidates:
-        if os.path.isdir(c):
-            return os.path.normpath(c)
-    return os.path.normpath(candidates[0])
-
-
-def resolve_config(name_or_path):
-    """Return the path of a params file given a path or a shipped name (``free_stroke``).
-
-    A shipped name is a bare name (``free_stroke`` or ``free_stroke.yaml``): a path
-    with a directory that does not exist is refused, never read as the shipped file
-    of the same name (a mistyped ``mydir/free_stroke.yaml`` would silently run the
-    shipped parameters instead of the user's).
-    """
-    if os.path.isfile(name_or_path):
-        return name_or_path
-    bare = os.path.basename(name_or_path) == name_or_path and '\\' not in name_or_path
-    stem = os.path.splitext(name_or_path)[0]
-    path = os.path.join(config_dir(), stem + '.yaml')
-    if bare and os.path.isfile(path):
-        return path
-    raise ParameterError(
-        f"config '{name_or_path}': no such file, and not a shipped name "
-        f'({", ".join(shipped_configs())})')
-
-
-def shipped_configs():
-    """Return the names of the params files in ``config/``."""
-    d = config_dir()
-    if not os.path.isdir(d):
-        return []
-    return sorted(os.path.splitext(f)[0] for f in os.listdir(d) if f.endswith('.yaml'))
-
-
-def load_params(name_or_path, **overrides):
-    """Load and validate a params file (path or shipped name); apply dotted overrides."""
-    path = resolve_config(name_or_path)
-    try:
-        with open(path, encoding='utf-8') as fh:
-            document = yaml.safe_load(fh)
-    except yaml.YAMLError as exc:
-        raise ParameterError(f'{path}: invalid YAML ({str(exc).splitlines()[0]})') from None
-    values = ros_parameters(document, path)
-    values.update({k.replace('__', '.'): v for k, v in overrides.items()})
-    try:
-        return from_flat_dict(values, source=path)
-    except ParameterError as exc:
-        raise ParameterError(f'{path}: {exc}') from None
-
-
-def dump_params(params, path, header=''):
-    """Write ``params`` as a ROS params file readable by the node and the CLI."""
-    tree = {}
-    for name, value in to_flat_dict(params).items():
-        node = tree
-        *heads, leaf = name.split('.')
-        for h in heads:
-            node = node.setdefault(h, {})
-        node[leaf] = value
-    text = yaml.safe_dump({f'/**/{NODE_NAME}': {'ros__parameters': tree}},
-                          sort_keys=False, default_flow_style=None)
-    with open(path, 'w', encoding='utf-8') as fh:
-        if header:
-            fh.write(''.join(f'# {line}\n' for line in header.splitlines()))
-        fh.write(text)
 
 
 def with_effects(params, **effects):

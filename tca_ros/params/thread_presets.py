@@ -1,47 +1,20 @@
-"""Thread presets: the material of a thread a maker names (config/threads/threads.yaml).
+"""Thread presets: the material of a thread a maker names, read from its file.
 
-A preset sets only material parameters of the schema (MATERIAL_PARAMETERS), plus
-the thread's resistance per length and its twist-diameter product; muscle.py
-combines it with the maker's geometry.
+config/threads/threads.yaml holds one entry per thread; each becomes a ThreadPreset
+(tca_ros.model.muscle_spec): material parameters of the schema only
+(MATERIAL_PARAMETERS), plus the thread's resistance per length and its
+twist-diameter product. tca_ros.model.muscle.describe_muscle combines a preset with
+the maker's geometry.
 """
-from dataclasses import dataclass, field
-import math
 import os
 
 import yaml
 
-from tca_ros.model.params import config_dir, flatten, ParameterError
-
-#: Schema names a thread preset may set: the material, not the muscle.
-MATERIAL_PARAMETERS = frozenset((
-    'fiber.bias_angle_deg', 'fiber.volume_fraction', 'fiber.density',
-    'fiber.specific_heat', 'fiber.gamma_coefficients', 'thermal.convection_coefficient',
-    'thermal.surface_factor', 'moduli.youngs_modulus', 'moduli.shear_modulus',
-    'moduli.fiber_modulus', 'moduli.fiber_softening', 'moduli.load_coefficients',
-    'moduli.max_torsion_strain', 'moduli.fiber_modulus_floor',
-    'electrical.temperature_coefficient', 'electrical.strain_coefficient'))
-
-
-#: Pa: the paper's twisted thread (d = 0.42 mm) breaks under 240 g (Sec. V-A)
-DEFAULT_BREAKING_STRESS = 2.354 / (math.pi * 0.21e-3 ** 2)
-
-
-@dataclass(frozen=True)
-class ThreadPreset:
-    """Material of a thread preset (config/threads/threads.yaml).
-
-    ``params`` maps schema names (``fiber.density``) to values in schema units;
-    ``resistance_per_length`` is in ohm/m (None if not conductive) and
-    ``twist_diameter_product`` theta* d in rad.
-    """
-
-    name: str
-    description: str
-    conductive: bool
-    resistance_per_length: object
-    twist_diameter_product: float
-    params: dict = field(default_factory=dict)
-    breaking_stress: float = DEFAULT_BREAKING_STRESS  # Pa, of the twisted thread's section
+from tca_ros.model.muscle_spec import DEFAULT_BREAKING_STRESS, MATERIAL_PARAMETERS, \
+    ThreadPreset
+from tca_ros.model.params_schema import ParameterError
+from tca_ros.params.config_search import config_dir
+from tca_ros.params.files import flatten
 
 
 def thread_presets_path():
