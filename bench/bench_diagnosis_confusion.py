@@ -222,7 +222,15 @@ def main(argv=None):
     with tempfile.TemporaryDirectory() as directory:
         work = [(seed, hidden, directory, m, tights) for m in layouts for seed, hidden in todo]
         with multiprocessing.Pool(args.jobs) as pool:
-            rows = [r for rs in pool.imap(run_case, work) for r in rs]
+            rows = []
+            for rs in pool.imap_unordered(run_case, work):
+                rows += rs
+                for r in rs:  # one line per diagnosis as it ends (a long run shows its progress)
+                    print(f'  {r["seed"]} {"+".join(r["hidden"]) or "none":<34s} '
+                          f'{r.get("tightness", "-"):<8s} {r["records"]} rec: '
+                          f'{named(r) if "skipped" not in r else "skipped"} '
+                          f'({"right" if "skipped" not in r and right(r) else "-"}, '
+                          f'{r.get("cpu", 0):.0f} s)', file=sys.stderr, flush=True)
     skipped = [r for r in rows if 'skipped' in r]
     rows = [r for r in rows if 'skipped' not in r]
     print(f'{len(rows)} diagnoses of {len(todo)} muscles in {time.perf_counter() - start:.0f} s '

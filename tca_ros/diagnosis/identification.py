@@ -15,7 +15,7 @@ from tca_ros.calibration.progress import Progress
 from tca_ros.diagnosis.findings import explain_findings, finding_effects, \
     unexplained_findings
 from tca_ros.diagnosis.holdout import AUTO, choose_validation, DEFAULT_VALIDATION
-from tca_ros.diagnosis.joint import beats_nominal, family_rival_notes, joint_extension, \
+from tca_ros.diagnosis.joint import beats_nominal, family_rivals, joint_extension, \
     JOINT_NFEV, joint_notes
 from tca_ros.diagnosis.nominal import calibrate_training_part, candidates_of, DiagnosisError, \
     nominal_with_fallback, read_any, record_nominal
@@ -369,7 +369,7 @@ def _second_opinions(nominal, calibrate_with, effects, values, extendeds, rounds
     model leaves adequate while its calibration moved values beyond the description
     gets those effects tested as the finding's cause (findings.py); an explanation
     with a parameter at the end of its range is not one; a single effect of a
-    family gets its rivals said (joint.family_rival_notes).
+    family gets its rivals said (joint.family_rivals).
     """
     judgement = nominal.judged(effects, values, extendeds)
     cal, joint = nominal.cal, None
@@ -405,7 +405,12 @@ def _second_opinions(nominal, calibrate_with, effects, values, extendeds, rounds
                        'than the effect can be, so it stands in for a cause that is not in '
                        'the catalogue and is not named')
     if verdict == 'explained' and joint is None and len(effects) == 1 and cal is not None:
-        # one effect of a family the records may not tell apart: say which rivals fit too
-        notes.extend(family_rival_notes(calibrate_with, nominal.problems, nominal.sims, cal,
-                                        nominal.candidates, effects[0], nominal.rmse))
+        # one effect of a family the records may not tell apart: its rivals calibrated
+        # jointly; one decisively better replaces it, the others are said
+        taken, said = family_rivals(calibrate_with, nominal.problems, nominal.sims, cal,
+                                    nominal.candidates, effects[0], nominal.rmse)
+        notes.extend(said)
+        if taken is not None:
+            effects, values, extendeds = list(taken.effects), taken.values, taken.sims
+            rmse, stats, verdict, explanation = nominal.judged(effects, values, extendeds)
     return effects, values, extendeds, (rmse, stats, verdict, explanation)
