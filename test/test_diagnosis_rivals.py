@@ -76,3 +76,28 @@ def test_a_rival_decisively_better_jointly_replaces_the_searched_effect(monkeypa
     # within the margin the search's name stays and the rival is said
     taken, notes = run(266.2 + DECISIVE_DEVIANCE - 0.1)
     assert taken is None and notes[0].startswith('dead_time is named by the search')
+
+
+def test_a_joint_fit_is_confirmed_only_by_a_clean_whole_record_calibration(monkeypatch):
+    from tca_ros.diagnosis.joint import confirm_on_whole
+    structured = {'displacement': SimpleNamespace(channel='displacement', structured=True)}
+    clean = {'displacement': SimpleNamespace(channel='displacement', structured=False)}
+    problem = SimpleNamespace(simulate_full=lambda values: values, parameters=lambda v: v)
+    cal = SimpleNamespace(params=None)
+    training = SimpleNamespace(report=SimpleNamespace(values={'heat_loss': 0.01}))
+    asked = []
+
+    def whole(fit, start, like):
+        asked.append((fit, start, like))
+        return (SimpleNamespace(params='whole-fit'), None, '')
+    monkeypatch.setattr(joint, 'changed_values', lambda params, reference: {'p': params})
+    for stats, expected in ((clean, clean), (structured, None)):
+        monkeypatch.setattr(joint, 'channel_stats', lambda *a, whole=False, s=stats: s)
+        assert confirm_on_whole(whole, [problem], cal, ['heat_loss'], training) is expected
+    assert asked[0] == (['heat_loss'], {'heat_loss': 0.01}, cal)  # starts at the training fit
+
+    def failing(fit, start, like):
+        raise ValueError('the calibration failed')
+    assert confirm_on_whole(failing, [problem], cal, ['heat_loss'], training) is None
+    assert confirm_on_whole(lambda *a: (None, None, 'skipped'), [problem], cal, [],
+                            training) is None

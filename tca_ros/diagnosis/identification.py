@@ -227,6 +227,13 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
         return calibrate_training_part(records, start_params, model, fraction, supply,
                                        False, validation, fit=fit, max_nfev=JOINT_NFEV,
                                        start_values=start_values, like=like)
+
+    def on_whole_records(fit, start_values, like):
+        """Calibrate ``fit`` on the whole records (joint.confirm_on_whole)."""
+        return calibrate_training_part(records, start_params, model, None, supply,
+                                       False, validation, fit=fit, max_nfev=JOINT_NFEV,
+                                       start_values=start_values, like=like)
+    calibrate_with.whole = on_whole_records
     effects, values, extendeds, judgement = _second_opinions(
         nominal, calibrate_with, effects, values, extendeds, rounds, notes)
     extended_rmse, extended_stats, verdict, explanation = judgement
@@ -324,12 +331,16 @@ class _Nominal:
         self.whole_stats = channel_stats(self.problems, self.sims, whole=True)
         self.rmse = pooled_heldout_rmse(self.problems, self.sims, self.problem.channels)
 
-    def judged(self, effects, values, extendeds):
-        """Return (held-out RMSE, residual stats, verdict, explanation) of an extension."""
+    def judged(self, effects, values, extendeds, confirmed=None):
+        """Return (held-out RMSE, residual stats, verdict, explanation) of an extension.
+
+        ``confirmed``: a joint fit's (whole-record stats, gain) (JointFit.confirmed).
+        """
         rmse = pooled_heldout_rmse(self.problems, extendeds, self.problem.channels)
         stats = channel_stats(self.problems, extendeds,
                               [p.parameters(values) for p in self.problems])
-        return (rmse, stats) + decide_verdict(effects, self.stats, stats, self.whole_stats)
+        return (rmse, stats) + decide_verdict(effects, self.stats, stats, self.whole_stats,
+                                              confirmed)
 
 
 def _search(nominal, notes):
@@ -383,17 +394,21 @@ def _second_opinions(nominal, calibrate_with, effects, values, extendeds, rounds
         if joint is not None:
             notes.extend(joint_notes(joint, rivals, effects))
             effects, values, extendeds = list(joint.effects), joint.values, joint.sims
-            judgement = nominal.judged(effects, values, extendeds)
-    elif judgement[2] == 'adequate' and named_by_findings:
-        # nothing structured is left because the calibration moved stated values
+            judgement = nominal.judged(effects, values, extendeds, joint.confirmed)
+    if joint is None and judgement[2] != 'explained' and named_by_findings:
+        # the calibration moved stated values: their effects tested as the cause, whether
+        # the moved values leave nothing structured (adequate) or not (unexplained: a
+        # power loss predicts the held-out part as the shifted heat loss does, so the
+        # joint stage's held-out rule cannot take it; the priors can)
+        adequate = judgement[2] == 'adequate'
         taken, said = explain_findings(calibrate_with, nominal.problems, nominal.sims, cal,
                                        nominal.candidates)
         notes.extend(said)
         if taken is not None:
             joint = taken.fit
             effects, values, extendeds = list(joint.effects), joint.values, joint.sims
-            judgement = nominal.judged(effects, values, extendeds)
-        elif cal.findings():  # adequate only by leaving the description: not adequate
+            judgement = nominal.judged(effects, values, extendeds, joint.confirmed)
+        elif adequate and cal.findings():  # adequate only by leaving the description
             judgement = judgement[:2] + ('unexplained', unexplained_findings(cal))
     rmse, stats, verdict, explanation = judgement
     pinned = parameters_at_bounds(effects, values, nominal.candidates)
@@ -412,5 +427,6 @@ def _second_opinions(nominal, calibrate_with, effects, values, extendeds, rounds
         notes.extend(said)
         if taken is not None:
             effects, values, extendeds = list(taken.effects), taken.values, taken.sims
-            rmse, stats, verdict, explanation = nominal.judged(effects, values, extendeds)
+            rmse, stats, verdict, explanation = nominal.judged(effects, values, extendeds,
+                                                               taken.confirmed)
     return effects, values, extendeds, (rmse, stats, verdict, explanation)

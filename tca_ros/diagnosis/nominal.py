@@ -137,7 +137,8 @@ def calibrate_training_part(records, params_of, model, fraction, supply, progres
     """Return (Calibration or None, [params per record], note): nominal fitted on training.
 
     Each record is simulated whole on a grid of about CALIBRATION_RATE_HZ; only
-    its training samples (holdout.py) enter the fit. ``calibrate_options``
+    its training samples (holdout.py) enter the fit, or every sample when
+    ``fraction`` is None. ``calibrate_options``
     (fit, start_values, max_nfev) go to calibration.calibrate.
     """
     from tca_ros.calibration.calibration import calibrate, CalibrationError
@@ -145,9 +146,11 @@ def calibrate_training_part(records, params_of, model, fraction, supply, progres
     from tca_ros.diagnosis.holdout import make_holdout
     from tca_ros.model.kinetostatic_models import make_kinetostatic_model
     from tca_ros.model.quasistatic import QuasiStaticUnsupported
-    holdout = make_holdout(fraction, validation)
     coarse = [decimated(r, CALIBRATION_RATE_HZ) for r in records]
-    masks = [holdout.train_mask(c.time, r.duration) for c, r in zip(coarse, records)]
+    masks = None  # fraction None: the whole records (a joint fit's confirmation, joint.py)
+    if fraction is not None:
+        holdout = make_holdout(fraction, validation)
+        masks = [holdout.train_mask(c.time, r.duration) for c, r in zip(coarse, records)]
     try:
         calibrate_options.setdefault('physics', False)  # the catalogue holds the lag
         cal = calibrate(coarse, params_of[0], model=model, check=False, supply=supply,

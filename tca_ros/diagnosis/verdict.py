@@ -12,7 +12,7 @@ import numpy as np
 from tca_ros.calibration.residuals import residual_stats
 from tca_ros.diagnosis.noise import heldout_deviance_gain, structure_test
 from tca_ros.diagnosis.regressors import input_terms_in_runs
-from tca_ros.diagnosis.verdict_text import verdict_sentence
+from tca_ros.diagnosis.verdict_text import confirmed_sentence, verdict_sentence
 from tca_ros.model.thermal import thermal_time_constant
 
 UNITS = {'displacement': 'm', 'temperature': 'K'}
@@ -112,7 +112,8 @@ def needs_explaining(*stats):
     return [st.channel for part in stats for st in part.values() if st.structured]
 
 
-def decide_verdict(effects, nominal_stats, extended_stats, nominal_whole_stats=None):
+def decide_verdict(effects, nominal_stats, extended_stats, nominal_whole_stats=None,
+                   confirmed=None):
     """Return (verdict, one-sentence explanation) from the residual structure.
 
     A channel is structured when the inputs still predict a practically relevant
@@ -123,8 +124,15 @@ def decide_verdict(effects, nominal_stats, extended_stats, nominal_whole_stats=N
     can show what the held-out part's test does not resolve); 'explained':
     effects added and no channel structured; 'unexplained': structure remains.
     The sentence names, per channel, the statistics that decided and their
-    thresholds (verdict_text.py).
+    thresholds (verdict_text.py). ``confirmed``: (whole-record stats, penalised
+    held-out gain) of a joint fit confirmed on the whole record (joint.py): its
+    effects leave no structure there, and the held-out structure of the
+    training-part fit is its estimation error: 'explained'.
     """
+    if effects and confirmed is not None:
+        whole, gain = confirmed
+        if not any(st.structured for st in whole.values()):
+            return 'explained', confirmed_sentence(effects, extended_stats, whole, gain)
     stats = extended_stats if effects else nominal_stats
     structured = [st.channel for st in stats.values() if st.structured]
     whole = [] if effects or not nominal_whole_stats else \
