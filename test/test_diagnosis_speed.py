@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 from tca_ros.calibration.candidates import build_candidates
+from tca_ros.diagnosis.candidate_fit import fit_candidate, screen
 from tca_ros.diagnosis.fitting import FitProblem, STOP
 from tca_ros.model.dynamics import TcaSimulator
 from tca_ros.model.simulation import simulate
@@ -100,13 +101,14 @@ def test_stop_held_at_the_base_runs_reduced_a_moving_stop_full(monkeypatch, cont
     kinds = _kinds(monkeypatch, problem)
     candidates = {c.name: c for c in build_candidates(params, 'cst', problem.record.load[0],
                                                       1e-3)}
-    problem.screen(candidates['ambient_offset'])
+    screen(problem, candidates['ambient_offset'])
     assert kinds and set(kinds) == {'reduced'}
     del kinds[:]
     # a refit that moves the stop: every evaluation on the full dynamics, so the
     # finite differences compare one kind of simulation with itself
     contact = candidates['coil_contact']
-    fit = problem.fit(candidates['ambient_offset'], (0.5,), free=contact.spaces, max_nfev=2)
+    fit = fit_candidate(problem, candidates['ambient_offset'], (0.5,), free=contact.spaces,
+                        max_nfev=2)
     assert kinds and set(kinds) == {'full'}
     assert fit.params[STOP] != stop and not problem.stop_moves
     del kinds[:]

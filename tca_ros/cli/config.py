@@ -133,7 +133,7 @@ def cmd_config_new(args, out):
     derived = dict(result.derived)
     if spec.coil != 'conical':
         if spec.loaded_length is None:
-            from tca_ros.model.muscle import Derived
+            from tca_ros.model.muscle_spec import Derived
             derived['loaded_length'] = Derived(
                 loaded_length_at_ambient(params), 'm',
                 f'static length at ambient under the mass ({params.model} model)')

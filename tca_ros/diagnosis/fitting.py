@@ -13,7 +13,8 @@ Method (docs/diagnosis_method.md)
    enter one dimensionless cost.
 4. Each candidate is screened at a few starting magnitudes; the best few (and
    the best of each measured channel) are refined by bounded nonlinear least
-   squares (scipy trust-region reflective).
+   squares (scipy trust-region reflective): ``candidate_fit.py``, on the training
+   residuals of this module's FitProblem.
 5. The search over candidates that uses these fits: ``search.py``.
 
 The result types and the standard errors are in ``fit_result.py``, the
@@ -22,23 +23,18 @@ progress bar that counts the simulations in ``progress.py``.
 import math
 
 import numpy as np
-from scipy.optimize import least_squares
 
 from tca_ros.calibration.residuals import lag_one_autocorrelation, noise_sigma
-from tca_ros.diagnosis.fit_result import CandidateScore, FitResult, standard_errors
 # FIT_RATE_HZ, MIN_PHYSICS_RATE_HZ and STOP are read from here by the diagnosis and tests
 from tca_ros.diagnosis.grid_simulation import FIT_RATE_HZ, GridSimulations, \
     MIN_PHYSICS_RATE_HZ, STOP  # noqa: F401
 from tca_ros.diagnosis.holdout import DEFAULT_VALIDATION, make_holdout, mask_runs
 from tca_ros.diagnosis.noise import quantisation_sigma
-from tca_ros.model.params_schema import SPECS
 
 FAILED_RESIDUAL = 1e3  # noise units per sample returned when a simulation fails
 DISPLACEMENT_NOISE_FLOOR = 1e-7  # m, noise floor for noise-free data
 TEMPERATURE_NOISE_FLOOR = 1e-3  # K
 TRAIN_FRACTION = 0.7  # share of the record used for fitting (the rest is held out)
-MAX_NFEV = 8  # least-squares iterations (function evaluations, Jacobian excluded)
-DIFF_STEP = 2e-3  # finite-difference step in the unit-scaled parameters
 
 
 class FitProblem(GridSimulations):
@@ -49,7 +45,8 @@ class FitProblem(GridSimulations):
     (Hz), ``progress`` and ``reduced``: as GridSimulations, which simulates. Here:
     the split into training and held-out parts (``train_fraction``, ``validation``
     'blocks' or 'tail', holdout.py), the noise of each channel, the normalised
-    residuals, the bounded fit of a candidate and its held-out score.
+    training residuals and the held-out cost. The bounded fit of a candidate on
+    these residuals and its held-out score are in candidate_fit.py.
     """
 
     def __init__(self, record, params, model='cst', physics_rate=None, fit_rate=FIT_RATE_HZ,
@@ -173,81 +170,3 @@ class FitProblem(GridSimulations):
     def full_train_mask(self):
         """Return the record-rate boolean mask of the training part."""
         return self.holdout.train_mask(self.record.time)
-
-    # -- fitting --------------------------------------------------------------------
-    def screen(self, candidate, base_starts=()):
-        """Return [(train cost, start values, cost per channel, base start)], best first.
-
-        Each start is tried on the base and on the base with each dict of
-        ``base_starts`` ({dotted name: value} of recalibrated parameters) applied;
-        the plain base's base start is {}. Costs are sums of squared normalised
-        training residuals (-); the per-channel costs follow ``self.channels``.
-        """
-        out = []
-        for start in candidate.starts:
-            for base_start in ({},) + tuple(base_starts):
-                values = {**self.base_values, **base_start}
-                values.update({s.name: v for s, v in zip(candidate.spaces, start)})
-                self.progress.label = f'screen {candidate.name}'
-                r = self.train_residuals(values)
-                per_channel = tuple(float(part @ part)
-                                    for part in r.reshape(len(self.channels), -1))
-                out.append((float(r @ r), start, per_channel, base_start))
-        return sorted(out, key=lambda item: item[0])
-
-    def fit(self, candidate, start, refine=True, free=(), max_nfev=MAX_NFEV, base_start=None):
-        """Fit ``candidate`` from ``start`` (values per space); return a FitResult.
-
-        ``free`` lists further ParameterSpaces (already in the base) refitted jointly,
-        each started from ``base_start`` ({dotted name: value}) where that has it,
-        else from the base.
-        """
-        spaces = tuple(candidate.spaces) + tuple(free)
-        x0 = [s.to_unit(v) for s, v in zip(candidate.spaces, start)]
-        first = {**self.base_values, **(base_start or {})}
-        x0 += [s.to_unit(first[s.name]) for s in free]
-
-        def values_at(z):
-            values = dict(self.base_values)
-            values.update({s.name: s.from_unit(zi) for s, zi in zip(spaces, z)})
-            return values
-
-        def fun(z):
-            self.progress.label = f'fit {candidate.name}'
-            return self.train_residuals(values_at(z))
-
-        self.stop_moves = refine and any(s.name == STOP for s in spaces)
-        try:
-            if refine:
-                sol = least_squares(fun, np.asarray(x0), bounds=(0.0, 1.0), method='trf',
-                                    diff_step=DIFF_STEP, max_nfev=max_nfev, xtol=1e-4,
-                                    ftol=1e-6, x_scale=1.0)
-                z, residual, jac = sol.x, sol.fun, sol.jac
-                success = bool(sol.success) or sol.status == 0
-                message = sol.message if sol.status != 0 else 'iteration limit reached'
-            else:
-                z = np.asarray(x0)
-                residual = fun(z)
-                jac = None
-                success, message = True, 'screened only (not refined)'
-        finally:
-            self.stop_moves = False
-        values = values_at(z)
-        n = residual.size
-        failed = bool(np.all(residual == FAILED_RESIDUAL))
-        params = {s.name: values[s.name] for s in spaces}
-        stderr = standard_errors(spaces, z, residual, jac)
-        return FitResult(name=candidate.name, params=params,
-                         units={s.name: SPECS[s.name].unit for s in spaces},
-                         stderr=stderr, residual_rms=float(np.sqrt(np.mean(residual ** 2))),
-                         n_samples=n, success=success and not failed,
-                         message='simulation failed' if failed else message)
-
-    def score(self, fit, refined):
-        """Return the CandidateScore of a FitResult on the held-out part."""
-        values = dict(self.base_values)
-        values.update(fit.params)
-        cost, rmse, n, rho = self.heldout(values)
-        return CandidateScore(fit=fit, heldout_cost=cost,
-                              heldout_score=math.sqrt(cost / n), heldout_rmse=rmse,
-                              n_heldout=n, lag_one=rho, refined=refined, values=values)

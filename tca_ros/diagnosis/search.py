@@ -1,6 +1,7 @@
 """Choose among candidate extensions on held-out data: the greedy effect search.
 
-Uses one FitProblem (fitting.py) per diagnosis (or a FitProblemSet over several records).
+Uses one FitProblem (fitting.py) per diagnosis (or a FitProblemSet over several records),
+and screens, fits and scores each candidate on it with candidate_fit.py.
 
 1. If nominal parameters are recalibrated, they are refitted first under the defect
    correction, so that no candidate is credited with what that refit alone gains.
@@ -20,6 +21,7 @@ import dataclasses
 from dataclasses import dataclass
 import math
 
+from tca_ros.diagnosis.candidate_fit import fit_candidate, score_fit, screen
 from tca_ros.diagnosis.verdict import channel_stats, needs_explaining, noise_model_gain
 
 REFINE_TOP = 3  # candidates refined by least squares after screening
@@ -106,8 +108,8 @@ def prune_effects(problem, found, values, candidates):
             reduced = {k: v for k, v in values.items() if k not in dropped}
             spaces = tuple(s for n in rest for s in spaces_of[n])
             problem.base_values = reduced
-            fit = problem.fit(Candidate('+'.join(rest), spaces, ()),
-                              [reduced[s.name] for s in spaces], max_nfev=PRUNE_NFEV)
+            fit = fit_candidate(problem, Candidate('+'.join(rest), spaces, ()),
+                                [reduced[s.name] for s in spaces], max_nfev=PRUNE_NFEV)
             reduced.update(fit.params)
             trials.append((_heldout_bic(problem, reduced, rest, candidates), rest, reduced))
         bic, rest, reduced = min(trials, key=lambda t: t[0])
@@ -218,8 +220,8 @@ def _greedy(problem, candidates, max_effects, refine_top, min_gain_percent, firs
         base_residuals = problem.heldout_residuals(values)
         lags = [c for c in remaining if c.name in LAG_EFFECTS]
         exchange, lag = _lag_exchange(problem, values) if lags else ((), None)
-        screened = [(problem.screen(_with_start(c, lag), exchange)
-                     if c in lags and exchange else problem.screen(c), c) for c in remaining]
+        screened = [(screen(problem, _with_start(c, lag), exchange)
+                     if c in lags and exchange else screen(problem, c), c) for c in remaining]
         screened.sort(key=lambda item: item[0][0][0])
         scores = []
         # forward selection with refit: the effects already found are refitted jointly
@@ -228,9 +230,9 @@ def _greedy(problem, candidates, max_effects, refine_top, min_gain_percent, firs
         free = tuple(s for name in found for s in spaces_of[name]) + problem.recalibration
 
         def evaluate(trials, cand, refine):
-            fit = problem.fit(cand, trials[0][1], refine=refine, free=free if refine else (),
-                              base_start=trials[0][3])
-            score = problem.score(fit, refine)
+            fit = fit_candidate(problem, cand, trials[0][1], refine=refine,
+                                free=free if refine else (), base_start=trials[0][3])
+            score = score_fit(problem, fit, refine)
             score.criterion = noise_model_gain(problem, base_residuals, score.values,
                                                cand.n_params)
             gain = 100.0 * (1.0 - score.heldout_score / base_score)
@@ -280,8 +282,8 @@ def polish_effects(problem, found, spaces_of, max_nfev=POLISH_NFEV):
     values = dict(problem.base_values)
     spaces = tuple(s for name in found for s in spaces_of[name]) + problem.recalibration
     joint = Candidate('+'.join(found), spaces, ())
-    fit = problem.fit(joint, [values[s.name] for s in spaces], refine=True,
-                      max_nfev=max_nfev)
+    fit = fit_candidate(problem, joint, [values[s.name] for s in spaces], refine=True,
+                        max_nfev=max_nfev)
     polished = dict(values)
     polished.update(fit.params)
     before = problem.train_residuals(values)

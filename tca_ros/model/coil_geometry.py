@@ -3,7 +3,7 @@
 The coil radius from a mandrel or a caliper, the pitch angle at which coils touch,
 the fiber length, coil count and pitch angle of a helix [1, eqs. (24), (26)], the
 inserted twist of a twisted thread, and the height, fiber length and turns of a
-conical spiral [1, eqs. (36), (37)] with its equivalent helix. muscle.py derives a
+conical spiral [1, eqs. (36), (37)] with its equivalent helix. muscle_coil.py derives a
 maker's muscle from them.
 
 [1] J. Sun and J. Zhao, "Physics-based modeling of twisted-and-coiled actuators using

@@ -29,8 +29,8 @@ l*, positive when stretched; the displacement published is the contraction
 x = q_ref - q from the loaded equilibrium at ambient (positive when shorter).
 
 This module holds the stepper (``TcaSimulator``). The equations it steps are
-written once, for every stepper: eq. (1) and the lags in thermal.py (under the
-drive's dead time in thermal_step.py), eq. (18), its schemes (central
+written once, for every stepper: eq. (1) and the lags in thermal.py (stepped, under
+the drive's dead time, by thermal_step.py's ThermalStepper), eq. (18), its schemes (central
 differences, backward Euler, friction) and the contact stop in end_motion.py;
 its substeps are planned by substeps.py.
 A whole sampled profile is run by ``simulate`` in simulation.py, which also holds
@@ -39,7 +39,6 @@ A whole sampled profile is run by ``simulate`` in simulation.py, which also hold
 from dataclasses import dataclass
 import math
 
-from tca_ros.model import effects as fx
 from tca_ros.model.end_motion import central_difference_step, contact_stop, creep_step
 from tca_ros.model.end_motion import EndMotion
 from tca_ros.model.kinetostatic_models import make_kinetostatic_model
@@ -83,6 +82,26 @@ def checked_dt(dt):
     return float(dt)
 
 
+def check_start_state(load, temp, elongation, tension, reference, contact):
+    """Raise ValueError unless (elongation, tension) is a finite static state.
+
+    ``load`` (N) at ``temp`` (degC); ``elongation``, the ``reference`` elongation
+    at ambient and the ``contact`` elongation in m, ``tension`` f_rod (N) there.
+    A load the coil cannot hold (it straightens) or a model that is not finite
+    there would otherwise surface as a division by zero in the first steps.
+    """
+    values = (elongation, tension, reference)
+    if not all(math.isfinite(v) for v in values):
+        raise ValueError(
+            f'dynamics.load = {load:g} N: no finite static equilibrium at {temp:g} degC '
+            f'(elongation {elongation:g} m, tension {tension:g} N)')
+    in_contact = elongation <= contact
+    if not in_contact and abs(tension - load) > EQUILIBRIUM_TOLERANCE * max(load, 1e-3):
+        raise ValueError(
+            f'dynamics.load = {load:g} N: beyond the range of the coil at {temp:g} degC '
+            f'(it straightens; the model holds {tension:.3g} N there)')
+
+
 class TcaSimulator:
     """Step a TCA: power and load in; temperature, displacement, resistance out.
 
@@ -102,13 +121,10 @@ class TcaSimulator:
         self.params = params
         self.dt = checked_dt(dt)
         self.kinetostatics = kinetostatics or make_kinetostatic_model(params, model)
-        self._heat = ThermalStepper(params)  # eq. (1) and the drive's dead time
+        self._heat = ThermalStepper(params)  # eq. (1), the drive's dead time, T_f and T_a
         self._contact = contact_elongation(params)
         self._motion = EndMotion(self.kinetostatics, self._contact, params)
-        e = params.effects
-        self._sensor_lag = e.sensor_lag != 0.0
-        # the fiber lags of T (degC), each off at its default
-        self._fiber_lags = e.second_thermal_lag > 0.0 or e.hysteresis_width > 0.0
+        self._sensor_lag = params.effects.sensor_lag != 0.0
         self.plan = SubstepPlan(self.check_step)  # substeps per step, re-planned
         self._step_length = None  # s, length of the last substep (q_{i-1} is that far back)
         self.state = TcaState()
@@ -137,29 +153,13 @@ class TcaSimulator:
                               fiber_temperature=temp,
                               elongation=q, previous_elongation=q, load=load)
         self.state.tension = self.kinetostatics.tension(q, temp)
-        self._check_equilibrium(load, temp, q, self.state.tension)
+        check_start_state(load, temp, q, self.state.tension, self.reference_elongation,
+                          self._contact)
         self._update_outputs(self.state, 0.0)
         self.state.measured_displacement = self.state.displacement
         self._step_length = None  # at rest: q_{i-1} = q_i holds for any step
         self.plan.replan(restart=False)
         return self.state
-
-    def _check_equilibrium(self, load, temp, elongation, tension):
-        """Raise ValueError unless (elongation, tension) is a finite static state.
-
-        A load the coil cannot hold (it straightens) or a model that is not finite
-        there would otherwise surface as a division by zero in the first steps.
-        """
-        values = (elongation, tension, self.reference_elongation)
-        if not all(math.isfinite(v) for v in values):
-            raise ValueError(
-                f'dynamics.load = {load:g} N: no finite static equilibrium at {temp:g} degC '
-                f'(elongation {elongation:g} m, tension {tension:g} N)')
-        in_contact = elongation <= self._contact
-        if not in_contact and abs(tension - load) > EQUILIBRIUM_TOLERANCE * max(load, 1e-3):
-            raise ValueError(
-                f'dynamics.load = {load:g} N: beyond the range of the coil at {temp:g} degC '
-                f'(it straightens; the model holds {tension:.3g} N there)')
 
     def equilibrium(self, load, temperature):
         """Return the static elongation (m) under load (N) at temperature (degC).
@@ -237,7 +237,7 @@ class TcaSimulator:
         q, y_c = s.elongation, s.creep
         # eq. (1) first; the explicit step below still uses f_rod(q_i, T_i) (s.tension),
         # the implicit quasi-static steps use T_{i+1}
-        self._heat_up(s, power, h)
+        self._heat.advance(s, power, h)
         if mass > 0.0 and self._step_length not in (None, h):
             self._motion.rescale_previous(s, q, load, self._step_length, h)
         self._step_length = h
@@ -263,19 +263,6 @@ class TcaSimulator:
         s.tension = model.tension(s.elongation - s.creep, s.actuation_temperature, s.tension)
         check_thread_strength(s.tension, p.fiber, s.time)  # the thread breaks: end the run
         self._update_outputs(s, h)
-
-    def _heat_up(self, s, power, h):
-        """Advance T (eq. (1)), T_f (second lag) and T_a (hysteresis) of s by h (s)."""
-        heat = self._heat
-        applied = heat.delayed(power, s.time, h) if heat.dead_time > 0.0 else power  # W
-        s.temperature = temp = heat.step(s.temperature, applied, h)
-        if self._fiber_lags:
-            e = self.params.effects
-            s.fiber_temperature = lag_step(s.fiber_temperature, temp, h, e.second_thermal_lag)
-            s.actuation_temperature = fx.play_operator(
-                s.fiber_temperature, s.actuation_temperature, e.hysteresis_width)
-        else:  # both lags off (the common case)
-            s.fiber_temperature = s.actuation_temperature = temp
 
     def _update_outputs(self, s, h):
         p = self.params

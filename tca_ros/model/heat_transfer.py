@@ -15,9 +15,9 @@ References
 """
 import math
 
-GRAVITY = 9.81  # m/s^2
-STEFAN_BOLTZMANN = 5.670374419e-8  # W/(m^2 K^4)
-KELVIN = 273.15  # K at 0 degC
+from tca_ros.model.effects import KELVIN, STEFAN_BOLTZMANN
+from tca_ros.model.params_schema import GRAVITY
+
 REFERENCE_RISE_K = 50.0  # K, surface temperature rise at which a still-air loss is quoted
 STILL_AIR_EMISSIVITY = 0.5  # -, between polished silver (0.05) and nylon (0.9): unknown
 #: Morgan's [1] (Ra upper bound, C, n) for a horizontal cylinder, ascending in Ra

@@ -46,6 +46,15 @@ class ThreadPreset:
     breaking_stress: float = DEFAULT_BREAKING_STRESS  # Pa, of the twisted thread's section
 
 
+@dataclass(frozen=True)
+class Derived:
+    """One derived quantity: value, unit and how it was obtained."""
+
+    value: float
+    unit: str
+    note: str
+
+
 class MuscleError(ParameterError):
     """A described muscle cannot exist or is incompletely described.
 

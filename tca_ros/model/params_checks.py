@@ -6,8 +6,11 @@ a ParameterError of one line naming the parameter, its value and what is allowed
 """
 import math
 
+from tca_ros.model.effects import true_ambient
+from tca_ros.model.heat_transfer import radiation_coefficient
 from tca_ros.model.limits import parameter_limit_violation
 from tca_ros.model.params_schema import ParameterError
+from tca_ros.model.thermal import heat_capacity, surface_area, thermal_conductance
 
 
 def check_consistency(p):
@@ -59,12 +62,11 @@ def check_consistency(p):
 def _check_thermal(p):
     """Refuse a fiber that cannot lose heat: h c_s A_0 > 0 (or radiation), tau finite."""
     fiber, thermal = p.fiber, p.thermal
-    area = 2.0 * math.pi * fiber.radius * fiber.length  # A_0 of eq. (1)
-    conductance = thermal.convection_coefficient * thermal.surface_factor * area
-    capacity = fiber.density * math.pi * fiber.radius ** 2 * fiber.length * fiber.specific_heat
+    conductance = thermal_conductance(fiber, thermal)  # h c_s A_0 of eq. (1)
+    capacity = heat_capacity(fiber)
     # Radiation linearised at ambient also cools: h = 0 with emissivity > 0 is a fiber in vacuum.
-    kelvin = thermal.ambient_temperature + p.effects.ambient_offset + 273.15
-    conductance += 4.0 * p.effects.emissivity * 5.670374419e-8 * area * kelvin ** 3
+    conductance += radiation_coefficient(p.effects.emissivity, 0.0, true_ambient(
+        thermal, p.effects)) * surface_area(fiber)
     if not (conductance > 0.0 and math.isfinite(capacity / conductance)):
         raise ParameterError(
             f"parameter 'thermal.convection_coefficient' = {thermal.convection_coefficient!r}: "

@@ -207,7 +207,7 @@ class HeldMuscle(TcaSimulator):
     def hold(self, power, elongation, h):
         """Advance h (s) under power (W) with the end at elongation q (m); return state."""
         s = self.state
-        self._heat_up(s, power, h)
+        self._heat.advance(s, power, h)
         y_c = s.creep
         s.previous_elongation = s.elongation
         s.velocity = (elongation - s.elongation) / h

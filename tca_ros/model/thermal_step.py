@@ -6,14 +6,17 @@ with the thermal effects of effects.py (radiation, nonlinear convection, a
 delivered-power ratio) written in thermal.py, and here the drive's dead time.
 The power is held over each step (zero-order hold): while eq. (1) is linear its
 step is exact, otherwise it is classical Runge-Kutta (error below 1e-9 K per
-step for dt <= 10 ms, tau = 3 s). ``ThermalStepper`` is held by the stepper of
-dynamics.py (and its rigs).
+step for dt <= 10 ms, tau = 3 s). Behind T, the temperature T_f of the second
+thermal lag and T_a, the one the untwist sees through the hysteresis (both
+effects.py, off at their defaults), advance with it (``ThermalStepper.advance``).
+``ThermalStepper`` is held by the stepper of dynamics.py (and its rigs).
 """
 import collections
 import math
 
+from tca_ros.model import effects as fx
 from tca_ros.model.thermal import heat_decay, heat_loss_slope, heat_rate, heat_step_exact
-from tca_ros.model.thermal import heat_step_rk4, HeatBalance
+from tca_ros.model.thermal import heat_step_rk4, HeatBalance, lag_step
 
 RK4_REAL_LIMIT = 2.785  # h lambda on the negative real axis where classical RK4 turns unstable
 THERMAL_CHECK_RISE = 300.0  # K above ambient at which the nonlinear thermal limit is also taken
@@ -21,6 +24,8 @@ THERMAL_CHECK_RISE = 300.0  # K above ambient at which the nonlinear thermal lim
 
 class ThermalStepper:
     """Step the fiber temperature T (degC) of eq. (1) under a delayed drive power.
+
+    ``advance`` steps a TcaState's T and, behind it, T_f and T_a (degC).
 
     Parameters
     ----------
@@ -37,6 +42,8 @@ class ThermalStepper:
         Whether eq. (1) is linear in T (no radiation, n = 0): exact steps.
     dead_time : float
         Delay d (s) of the drive.
+    fiber_lags : bool
+        Whether the second thermal lag or the hysteresis is on (T_f, T_a differ from T).
     """
 
     def __init__(self, params):
@@ -45,6 +52,9 @@ class ThermalStepper:
         self.ambient = self.balance.ambient
         self.linear = self.balance.linear
         self.dead_time = params.effects.dead_time  # s
+        e = params.effects
+        # the fiber lags of T (degC), each off at its default
+        self.fiber_lags = e.second_thermal_lag > 0.0 or e.hysteresis_width > 0.0
         self._decay_step = None  # s, the substep self._decay (-) was computed for
         self._decay = None
         self._drive = collections.deque()  # (start time (s), power (W)) for the dead time
@@ -78,6 +88,22 @@ class ThermalStepper:
             if t1 >= end:
                 break
         return energy / h
+
+    def advance(self, s, power, h):
+        """Advance T (eq. (1)), T_f (second lag) and T_a (hysteresis) of s by h (s).
+
+        ``s`` is a TcaState (temperatures in degC, ``time`` in s); ``power`` (W) is
+        commanded at s.time and reaches the fiber after the dead time.
+        """
+        applied = self.delayed(power, s.time, h) if self.dead_time > 0.0 else power  # W
+        s.temperature = temp = self.step(s.temperature, applied, h)
+        if self.fiber_lags:
+            e = self.params.effects
+            s.fiber_temperature = lag_step(s.fiber_temperature, temp, h, e.second_thermal_lag)
+            s.actuation_temperature = fx.play_operator(
+                s.fiber_temperature, s.actuation_temperature, e.hysteresis_width)
+        else:  # both lags off (the common case)
+            s.fiber_temperature = s.actuation_temperature = temp
 
     def rate(self, temp, power):
         """Return dT/dt (K/s) of eq. (1) with the thermal effects at T (degC), P (W)."""

@@ -27,7 +27,6 @@ from std_msgs.msg import Float64
 from std_srvs.srv import Trigger
 
 from tca_ros.model.params_schema import ParameterError, SCHEMA, SPECS
-from tca_ros.model.tca_params import from_flat_dict
 from tca_ros.params.row_cache import install_disk_cache
 from tca_ros.ros.node_cmdline import check_ros_arguments, init_quietly, log_fatal
 from tca_ros.ros.node_core import NodeCore
@@ -35,7 +34,7 @@ from tca_ros.ros.node_diagnostics import DiagnosticsPublisher
 from tca_ros.ros.node_episode import Log, WARN_PERIOD
 from tca_ros.ros.node_outputs import COMMAND_QOS, StateOutputs, time_msg, warm_up_shape
 from tca_ros.ros.node_params import (  # noqa: F401  (re-exported: the node's parameter API)
-    build_simulator, check_unknown_overrides,
+    build_simulator, check_unknown_overrides, declare_node_parameters,
     descriptor, GuardedParameterService, INTEGER_NAMES,
     NAMESPACED, namespaced_name, NODE_SCHEMA, NODE_SPECS,
     numbers_as_declared_types, physics_dt, physics_steps_per_tick, READ_ONLY, REBUILD,
@@ -55,7 +54,8 @@ class TcaSimNode(Node):
     def __init__(self, **kwargs):
         kwargs['start_parameter_services'] = False  # ours refuse what rclpy cannot convert
         super().__init__('tca', **kwargs)
-        params, cfg, sim = self._declare_parameters()
+        self._parameter_service = GuardedParameterService(self)
+        params, cfg, sim = declare_node_parameters(self)
         self._owns_time = cfg['publish_clock']
         self._wall = Clock(clock_type=ClockType.STEADY_TIME)
         self._outputs = StateOutputs(self)
@@ -213,32 +213,6 @@ class TcaSimNode(Node):
         self.get_logger().info(response.message)
         self._diagnostics.update()
         return response
-
-    def _declare_parameters(self):
-        """Declare the schema's and the node's parameters; return (params, cfg, simulator).
-
-        A bad start-up value raises ParameterError with the schema's one-line message.
-        """
-        self._parameter_service = GuardedParameterService(self)
-        all_specs = [(s, s.name in READ_ONLY) for s in SCHEMA + NODE_SCHEMA]
-        for spec, _ in all_specs:
-            default = spec.default if spec.name not in NAMESPACED else \
-                namespaced_name(self.get_namespace(), spec.default)
-            self.declare_parameter(spec.name, default, descriptor(spec, with_range=False))
-        check_unknown_overrides(self)  # a misspelt name is refused, as tca_sim does
-        params = from_flat_dict({s.name: self.get_parameter(s.name).value for s in SCHEMA},
-                                source='ros parameters')
-        cfg = validate_node_values(
-            {s.name: self.get_parameter(s.name).value for s in NODE_SCHEMA})
-        sim = build_simulator(params, cfg)
-        # 1000.0 from a params file is stored as the INTEGER it names, 25 for a DOUBLE
-        # as 25.0: every parameter keeps its declared type.
-        self.set_parameters(numbers_as_declared_types(
-            [self.get_parameter(spec.name) for spec, _ in all_specs]))
-        # Ranges only now: a bad start-up value gets the schema's one-line message above.
-        for spec, read_only in all_specs:
-            self.set_descriptor(spec.name, descriptor(spec, read_only))
-        return params, cfg, sim
 
     def _on_set_parameters(self, parameters):
         """Check new values against the schema and cross-parameter rules; apply them.

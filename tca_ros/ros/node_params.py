@@ -18,6 +18,7 @@ from rclpy.parameter import Parameter
 from rclpy.parameter_service import ParameterService
 
 from tca_ros.model.params_schema import check_value, ParameterError, SCHEMA, SPECS
+from tca_ros.model.tca_params import from_flat_dict
 from tca_ros.ros.node_schema import (  # noqa: F401  (re-exported: the node's parameter API)
     build_simulator, NAMESPACED, namespaced_name, NODE_SCHEMA, NODE_SPECS, physics_dt,
     physics_steps_per_tick, READ_ONLY, REBUILD, validate_node_values)
@@ -101,6 +102,36 @@ def check_unknown_overrides(node):
         raise ParameterError(
             f"parameter '{name}' = {value!r}: unknown parameter (known: see "
             'config/free_stroke.yaml and docs/node.md)')
+
+
+def declare_node_parameters(node):
+    """Declare the schema's and the node's parameters; return (params, cfg, simulator).
+
+    Each parameter is declared with its default (a namespaced default under the
+    node's namespace), start-up overrides that name no parameter are refused, and
+    every value is stored in its declared type before the descriptors get their
+    ranges. A bad start-up value raises ParameterError with the schema's one-line
+    message. Units: the schema's (SI, temperatures in degC).
+    """
+    all_specs = [(s, s.name in READ_ONLY) for s in SCHEMA + NODE_SCHEMA]
+    for spec, _ in all_specs:
+        default = spec.default if spec.name not in NAMESPACED else \
+            namespaced_name(node.get_namespace(), spec.default)
+        node.declare_parameter(spec.name, default, descriptor(spec, with_range=False))
+    check_unknown_overrides(node)  # a misspelt name is refused, as tca_sim does
+    params = from_flat_dict({s.name: node.get_parameter(s.name).value for s in SCHEMA},
+                            source='ros parameters')
+    cfg = validate_node_values(
+        {s.name: node.get_parameter(s.name).value for s in NODE_SCHEMA})
+    sim = build_simulator(params, cfg)
+    # 1000.0 from a params file is stored as the INTEGER it names, 25 for a DOUBLE
+    # as 25.0: every parameter keeps its declared type.
+    node.set_parameters(numbers_as_declared_types(
+        [node.get_parameter(spec.name) for spec, _ in all_specs]))
+    # Ranges only now: a bad start-up value gets the schema's one-line message above.
+    for spec, read_only in all_specs:
+        node.set_descriptor(spec.name, descriptor(spec, read_only))
+    return params, cfg, sim
 
 
 # -- parameter services -------------------------------------------------------------
