@@ -143,8 +143,8 @@ def catalogue_table():
             first = i == 0
             label = f'`{name}`' if first else ''
             if first and name in cand.ABSORBED:
-                label += (f' (not searched after a calibration: the same as '
-                          f'`{cand.ABSORBED[name]}`)')
+                label += (f' (not searched beside `{cand.ABSORBED[name]}` refitted over '
+                          'all its factors: the same parameter)')
             rows.append('| ' + ' | '.join(cell(c) for c in [
                 label, f'`{dotted}` ({spec.unit})',
                 RELATIONS[name] if first else '', _generator_range(name, dotted),
@@ -166,7 +166,7 @@ def unsearched_table():
 
 def recalibration_table():
     """Return the table of the nominal parameters refitted beside every candidate."""
-    rows = ['| parameter (unit) | refitted within (x calibrated value) | meaning |',
+    rows = ['| parameter (unit) | refitted within at most (x calibrated value) | meaning |',
             '|---|---|---|']
     for dotted, (low, high) in cand.RECALIBRATION.items():
         spec = SPECS[dotted]

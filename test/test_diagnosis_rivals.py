@@ -1,9 +1,9 @@
-"""family_rival_notes: an effect the search names, and the family rivals that fit as well."""
+"""family_rivals: an effect the search names, and the family rivals that fit as well or better."""
 from types import SimpleNamespace
 
 from tca_ros.calibration.candidates import Candidate
 from tca_ros.diagnosis import joint
-from tca_ros.diagnosis.joint import family_rival_notes, JointFit
+from tca_ros.diagnosis.joint import DECISIVE_DEVIANCE, family_rivals, JointFit
 
 
 def _candidate(name, dotted):
@@ -31,7 +31,9 @@ def _notes(monkeypatch, fits, found='second_thermal_lag', rms_ok=lambda sims: Tr
     monkeypatch.setattr(joint, 'joint_calibrations', fake_calibrations)
     monkeypatch.setattr(joint, 'lowers_heldout_rms',
                         lambda problems, sims, rmse: rms_ok(sims))
-    return family_rival_notes(None, [], [], None, CANDIDATES, found, {}), asked
+    taken, notes = family_rivals(None, [], [], None, CANDIDATES, found, {})
+    assert taken is None or taken in fits
+    return notes, asked
 
 
 def test_a_rival_that_explains_as_well_is_said_beside_the_named_effect(monkeypatch):
@@ -57,3 +59,45 @@ def test_rivals_at_a_bound_structured_worse_or_no_better_are_not_said(monkeypatc
 def test_an_effect_without_a_family_calibrates_nothing(monkeypatch):
     notes, asked = _notes(monkeypatch, [], found='creep')
     assert notes == [] and asked == []
+
+
+def test_a_rival_decisively_better_jointly_replaces_the_searched_effect(monkeypatch):
+    def run(rival_gain):
+        fits = [_fit('dead_time', 266.2), _fit('sensor_lag', rival_gain),
+                _fit('second_thermal_lag', 183.0)]
+        monkeypatch.setattr(joint, 'joint_calibrations', lambda *a, **k: fits)
+        monkeypatch.setattr(joint, 'lowers_heldout_rms', lambda problems, sims, rmse: True)
+        return family_rivals(None, [], [], None, CANDIDATES, 'dead_time', {})
+
+    taken, notes = run(766.2)
+    assert taken.name == 'sensor_lag'
+    assert notes[0].startswith('dead_time was named by the search;')
+    assert 'sensor_lag is named' in notes[0]
+    # within the margin the search's name stays and the rival is said
+    taken, notes = run(266.2 + DECISIVE_DEVIANCE - 0.1)
+    assert taken is None and notes[0].startswith('dead_time is named by the search')
+
+
+def test_a_joint_fit_is_confirmed_only_by_a_clean_whole_record_calibration(monkeypatch):
+    from tca_ros.diagnosis.joint import confirm_on_whole
+    structured = {'displacement': SimpleNamespace(channel='displacement', structured=True)}
+    clean = {'displacement': SimpleNamespace(channel='displacement', structured=False)}
+    problem = SimpleNamespace(simulate_full=lambda values: values, parameters=lambda v: v)
+    cal = SimpleNamespace(params=None)
+    training = SimpleNamespace(report=SimpleNamespace(values={'heat_loss': 0.01}))
+    asked = []
+
+    def whole(fit, start, like):
+        asked.append((fit, start, like))
+        return (SimpleNamespace(params='whole-fit'), None, '')
+    monkeypatch.setattr(joint, 'changed_values', lambda params, reference: {'p': params})
+    for stats, expected in ((clean, clean), (structured, None)):
+        monkeypatch.setattr(joint, 'channel_stats', lambda *a, whole=False, s=stats: s)
+        assert confirm_on_whole(whole, [problem], cal, ['heat_loss'], training) is expected
+    assert asked[0] == (['heat_loss'], {'heat_loss': 0.01}, cal)  # starts at the training fit
+
+    def failing(fit, start, like):
+        raise ValueError('the calibration failed')
+    assert confirm_on_whole(failing, [problem], cal, ['heat_loss'], training) is None
+    assert confirm_on_whole(lambda *a: (None, None, 'skipped'), [problem], cal, [],
+                            training) is None

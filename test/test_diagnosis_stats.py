@@ -186,6 +186,12 @@ def test_the_joint_calibration_takes_the_first_rounds_best_and_the_lag_siblings(
     assert [c.name for c in joint_order([SearchRound([], 1.0, {}, without_lag)],
                                         candidates)] == ['creep', 'hysteresis', 'radiation']
     assert joint_order([], candidates) == []
+    # the effects a calibration's findings name come after them, once
+    ranked = [SimpleNamespace(name=n) for n in ['creep', 'hysteresis', 'ambient_offset',
+                                                'dead_time']]
+    order = [c.name for c in joint_order([SearchRound([], 1.0, {}, ranked)], candidates,
+                                         extra=('power_loss', 'creep'))]
+    assert order == ['creep', 'hysteresis', 'ambient_offset', 'power_loss']
 
 
 def test_pairs_start_from_single_joint_fits_that_help_and_take_partners_outside_their_family():

@@ -109,3 +109,23 @@ def test_two_channels_one_structured_say_which():
     assert 'temperature: the inputs predict nothing significant in the residual ' \
         '(F-test p=0.0019 >= 0.001)' in sentence
     assert _check_numbers(sentence) == 3
+
+
+@pytest.mark.parametrize('whole_predictable', PREDICTABLE)
+def test_a_joint_fit_confirmed_on_the_whole_record_is_explained_only_when_that_is_clean(
+        whole_predictable):
+    # fitted on the training part, the effect leaves 3x the floor on the held-out part;
+    # calibrated on the whole record it leaves the record's residual below (explained)
+    # or above (the held-out verdict stands) its floor
+    heldout = _stats(0.5 * STRUCTURE_ALPHA, 3.0 * FLOOR)
+    whole = _stats(0.5 * STRUCTURE_ALPHA, whole_predictable)
+    verdict, sentence = decide_verdict(['power_loss'], heldout, heldout,
+                                       confirmed=(whole, 23.0))
+    clean = whole_predictable < FLOOR
+    assert verdict == ('explained' if clean else 'unexplained'), sentence
+    assert _check_numbers(sentence) >= (2 if clean else 1)
+    assert '. ' not in sentence and not sentence.endswith('.')
+    if clean:
+        assert sentence.startswith('after adding power_loss, calibrated jointly on the whole '
+                                   'record, no channel of its residual is structured')
+        assert 'penalised held-out gain 23.0' in sentence

@@ -187,12 +187,13 @@ class Calibration:
                     'steady_rise', 'K/W', 1.0 / g.value, sg / g.value, 1.0 / g.prior,
                     g.determined)}
 
-    def findings(self):
+    def findings(self, implausible=False):
         """Return [(name, z, catalogue effects)] of values beyond their stated uncertainty.
 
         A calibrated value more than SHIFT_Z prior spreads from the description (and
         still plausible; an implausible one is reported as such) is a finding: the
-        effects are those of physical_priors.stands_for.
+        effects are those of physical_priors.stands_for. ``implausible``: the values
+        past their physical limits too (what they stand for, for the diagnosis).
         """
         from tca_ros.calibration.physical_priors import stands_for
         tau_z = None
@@ -202,7 +203,7 @@ class Calibration:
                      - np.log(v['heat_loss'] / pr['heat_loss'].prior))
             tau_z = float(shift / np.hypot(pr['heat_capacity'].spread, pr['heat_loss'].spread))
         return [(r.name, r.z, stands_for(r.name, tau_z)) for r in self.plausibility()
-                if r.shifted and not r.implausible]
+                if (r.shifted and not r.implausible) or (implausible and r.implausible)]
 
     def combinations(self):
         """Return [(a, b, 'product'|'ratio', relative spread)] the records fix jointly only."""

@@ -85,11 +85,18 @@ def effect_space(name):
 #: (factor below, factor above) the calibrated value. Actuation gain (stroke per
 #: kelvin), delivered power (steady rise), specific heat (time constant) and damping
 #: (a lag the calibration may have given it; docs/diagnosis_method.md, "Calibrate first").
+#: Narrower where the description states the value better (recalibration_spaces).
 RECALIBRATION = {'fiber.untwist_gain': (0.6, 1.6), 'thermal.delivered_power_ratio': (0.7, 1.4),
                  'fiber.specific_heat': (0.6, 1.6), 'dynamics.damping': (0.05, 1.0)}
+#: the description's uncertainty entry (params file ``uncertainty.*``) of each of them
+STATED_AS = {'fiber.untwist_gain': 'actuation_gain',
+             'thermal.delivered_power_ratio': 'delivered_power_ratio',
+             'fiber.specific_heat': 'heat_capacity', 'dynamics.damping': 'damping'}
 #: Effects that are one of the RECALIBRATION parameters under another name: a power
 #: loss eta scales the heating power as the delivered power ratio r does ((1 - eta) r P,
-#: effects.heating_power), so once r is fitted, eta is not identifiable, never a cause.
+#: effects.heating_power). Where r is refitted over all of its RECALIBRATION factors, eta
+#: is not identifiable and is not searched; where the description states r more tightly,
+#: the loss beyond what r may take is the effect's (absorbed_candidates).
 ABSORBED = {'power_loss': 'thermal.delivered_power_ratio'}
 CONTACT_START_FRACTIONS = (0.9, 0.75, 0.6, 0.45)  # stop at these fractions of the peak
 CONTACT_MARGIN_DEG = 0.05  # alpha_min stays this far below alpha* (validation rule)
@@ -166,32 +173,63 @@ def build_candidates(params, model, load0, peak_contraction, names=None,
     return out
 
 
-def recalibration_spaces(params):
+def recalibration_spaces(params, described=None, spreads=None):
     """Return (ParameterSpaces, their current values) of RECALIBRATION around ``params``.
 
     Log-scaled between the factors of RECALIBRATION times the calibrated value;
     the values are the dotted names' present values (schema units). A parameter at
     zero (a params file without damping) has no scale to refit around and stays fixed.
+    With the description ``described`` (TcaParams) and ``spreads`` (STATED_AS's
+    uncertainty entries -> prior spread of ln value, physical_priors.prior_spreads),
+    each range is also held within SHIFT_Z prior spreads of the described value (and
+    always holds the calibrated one): a value the description states to 3 % is not
+    refitted by 60 % to take up an effect (docs/diagnosis_method.md, "Calibrate first").
     """
+    from tca_ros.calibration.physical_priors import SHIFT_Z
     spaces, values = [], {}
     for name, (low, high) in RECALIBRATION.items():
-        section, field_name = name.split('.')
-        value = float(getattr(getattr(params, section), field_name))
+        value = _dotted(params, name)
         if value <= 0.0:
             continue
-        spaces.append(ParameterSpace(name, low * value, high * value, log=True))
+        low, high = low * value, high * value
+        prior = _dotted(described, name) if described is not None else 0.0
+        spread = (spreads or {}).get(STATED_AS[name])
+        if prior > 0.0 and spread is not None:
+            width = math.exp(SHIFT_Z * spread)
+            low = max(low, min(value, prior / width))
+            high = min(high, max(value, prior * width))
+            if high <= low:  # a range of one value: nothing to refit
+                continue
+        spaces.append(ParameterSpace(name, low, high, log=True))
         values[name] = value
     return tuple(spaces), values
+
+
+def _dotted(params, name):
+    """Return the float value of dotted ``name`` ('fiber.untwist_gain') in ``params``."""
+    section, field_name = name.split('.')
+    return float(getattr(getattr(params, section), field_name))
 
 
 def absorbed_candidates(candidates, recalibration):
     """Return (kept Candidates, names of those a recalibration parameter absorbs).
 
     ``recalibration``: the ParameterSpaces refitted with every candidate; an
-    effect of ABSORBED whose twin is among them is dropped from the search.
+    effect of ABSORBED whose twin is among them over the whole of its RECALIBRATION
+    factors (the description states the twin no better than they reach) is dropped
+    from the search: the twin takes it. Where the description narrowed the twin's
+    range (recalibration_spaces), the effect is searched and credited only with
+    what the twin cannot take.
     """
-    refitted = {s.name for s in recalibration}
-    absorbed = [c.name for c in candidates if ABSORBED.get(c.name) in refitted]
+    refitted = {s.name: s for s in recalibration}
+    absorbed = []
+    for name, twin in ABSORBED.items():
+        space = refitted.get(twin)
+        if space is None or not any(c.name == name for c in candidates):
+            continue
+        low, high = RECALIBRATION[twin]
+        if space.high / space.low >= (1.0 - 1e-9) * high / low:
+            absorbed.append(name)
     return [c for c in candidates if c.name not in absorbed], absorbed
 
 

@@ -107,6 +107,22 @@ class FitReport:
     n_samples: int
     n_effective: float
     correlation: np.ndarray = field(default=None, repr=False)
+    record_samples: list = field(default_factory=list)  # per record: samples fitted
+    weights: list = field(default_factory=list)  # per record: relative residual scale
+    prior_cost: float = 0.0  # sum of ((z - z_prior) / spread)^2 at the values (-)
+
+    def data_cost(self, reference=None):
+        """Return the data part of the objective at the values, on ``reference``'s scales (-).
+
+        sum_records sum_channels n_r (RMSE / (w_r sigma_c))^2 n_eff / n with the channel
+        scales sigma_c and n_eff / n of ``reference`` (a FitReport of the same records
+        and masks; default this one), so two fits compare on one scale.
+        """
+        ref = reference or self
+        factor = ref.n_effective / ref.n_samples if ref.n_samples else 0.0
+        return factor * sum(n * (rmse[c] / (w * ref.channel_scale[c])) ** 2
+                            for rmse, n, w in zip(self.record_rmse, self.record_samples,
+                                                  self.weights) for c in rmse)
 
 
 class Objective:
@@ -228,11 +244,15 @@ def fit(objective, parameters, fixed=None, initial_scale=None, scale_floor=None,
                     for r in raw] if raw is not None else [])
     sd = np.sqrt(np.clip(np.diag(cov), 1e-300, None))
     corr = cov / np.outer(sd, sd)
+    prior_cost = float(sum(((p.to_fit(values[p.name]) - p.to_fit(p.prior)) / p.spread) ** 2
+                           for p in free))
     return FitReport(estimates=estimates, values=values,
                      success=bool(sol is not None and sol.status > 0 and raw is not None),
                      message=sol.message if sol is not None else 'nothing to fit',
                      nfev=objective.nfev, channel_scale=scale, record_rmse=record_rmse,
-                     n_samples=objective.size(), n_effective=n_eff, correlation=corr)
+                     n_samples=objective.size(), n_effective=n_eff, correlation=corr,
+                     record_samples=[int(m.sum()) for m in objective.masks],
+                     weights=list(objective.weights), prior_cost=prior_cost)
 
 
 def _jacobian(fun, z, parameters):

@@ -12,8 +12,10 @@ import time as wallclock
 from tca_ros.calibration.candidates import ABSORBED, absorbed_candidates, parameters_at_bounds
 from tca_ros.calibration.conditions import held_strength
 from tca_ros.calibration.progress import Progress
+from tca_ros.diagnosis.findings import explain_findings, finding_effects, \
+    unexplained_findings
 from tca_ros.diagnosis.holdout import AUTO, choose_validation, DEFAULT_VALIDATION
-from tca_ros.diagnosis.joint import beats_nominal, family_rival_notes, joint_extension, \
+from tca_ros.diagnosis.joint import beats_nominal, family_rivals, joint_extension, \
     JOINT_NFEV, joint_notes
 from tca_ros.diagnosis.nominal import calibrate_training_part, candidates_of, DiagnosisError, \
     nominal_with_fallback, read_any, record_nominal
@@ -225,10 +227,19 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
         return calibrate_training_part(records, start_params, model, fraction, supply,
                                        False, validation, fit=fit, max_nfev=JOINT_NFEV,
                                        start_values=start_values, like=like)
+
+    def on_whole_records(fit, start_values, like):
+        """Calibrate ``fit`` on the whole records (joint.confirm_on_whole)."""
+        return calibrate_training_part(records, start_params, model, None, supply,
+                                       False, validation, fit=fit, max_nfev=JOINT_NFEV,
+                                       start_values=start_values, like=like)
+    calibrate_with.whole = on_whole_records
     effects, values, extendeds, judgement = _second_opinions(
         nominal, calibrate_with, effects, values, extendeds, rounds, notes)
     extended_rmse, extended_stats, verdict, explanation = judgement
-    if verdict in ('adequate', 'explained') and holds_one_load(records):
+    if holds_one_load(records) and (verdict != 'unexplained'
+                                    or not needs_explaining(extended_stats)):
+        # no structure left (the verdict may still be a finding's): say what one load hides
         notes.append(ONE_LOAD_NOTE)
     notes.extend(repeat_notes(records, extended_rmse))
     helpful = []
@@ -320,12 +331,16 @@ class _Nominal:
         self.whole_stats = channel_stats(self.problems, self.sims, whole=True)
         self.rmse = pooled_heldout_rmse(self.problems, self.sims, self.problem.channels)
 
-    def judged(self, effects, values, extendeds):
-        """Return (held-out RMSE, residual stats, verdict, explanation) of an extension."""
+    def judged(self, effects, values, extendeds, confirmed=None):
+        """Return (held-out RMSE, residual stats, verdict, explanation) of an extension.
+
+        ``confirmed``: a joint fit's (whole-record stats, gain) (JointFit.confirmed).
+        """
         rmse = pooled_heldout_rmse(self.problems, extendeds, self.problem.channels)
         stats = channel_stats(self.problems, extendeds,
                               [p.parameters(values) for p in self.problems])
-        return (rmse, stats) + decide_verdict(effects, self.stats, stats, self.whole_stats)
+        return (rmse, stats) + decide_verdict(effects, self.stats, stats, self.whole_stats,
+                                              confirmed)
 
 
 def _search(nominal, notes):
@@ -360,21 +375,41 @@ def _second_opinions(nominal, calibrate_with, effects, values, extendeds, rounds
     """Return (effects, values, extended sims, judgement) after the search's checks.
 
     ``judgement`` is Nominal.judged's (RMSE, stats, verdict, explanation). A record
-    the search leaves unexplained gets the joint stage (joint.py); an explanation
+    the search leaves unexplained gets the joint stage (joint.py), which also tries
+    the effects the calibration's findings name; a record the calibrated nominal
+    model leaves adequate while its calibration moved values beyond the description
+    gets those effects tested as the finding's cause (findings.py); an explanation
     with a parameter at the end of its range is not one; a single effect of a
-    family gets its rivals said (joint.family_rival_notes).
+    family gets its rivals said (joint.family_rivals).
     """
     judgement = nominal.judged(effects, values, extendeds)
     cal, joint = nominal.cal, None
+    named_by_findings = finding_effects(cal)
     if judgement[2] == 'unexplained' and cal is not None and rounds:
         # the search's nominal refit is narrow: calibrate its first round's best
         # candidates together with the nominal parameters (joint.py)
         joint, rivals = joint_extension(calibrate_with, nominal.problems, nominal.sims, cal,
-                                        nominal.candidates, rounds, nominal.rmse)
+                                        nominal.candidates, rounds, nominal.rmse,
+                                        extra=named_by_findings)
         if joint is not None:
             notes.extend(joint_notes(joint, rivals, effects))
             effects, values, extendeds = list(joint.effects), joint.values, joint.sims
-            judgement = nominal.judged(effects, values, extendeds)
+            judgement = nominal.judged(effects, values, extendeds, joint.confirmed)
+    if joint is None and judgement[2] != 'explained' and named_by_findings:
+        # the calibration moved stated values: their effects tested as the cause, whether
+        # the moved values leave nothing structured (adequate) or not (unexplained: a
+        # power loss predicts the held-out part as the shifted heat loss does, so the
+        # joint stage's held-out rule cannot take it; the priors can)
+        adequate = judgement[2] == 'adequate'
+        taken, said = explain_findings(calibrate_with, nominal.problems, nominal.sims, cal,
+                                       nominal.candidates)
+        notes.extend(said)
+        if taken is not None:
+            joint = taken.fit
+            effects, values, extendeds = list(joint.effects), joint.values, joint.sims
+            judgement = nominal.judged(effects, values, extendeds, joint.confirmed)
+        elif adequate and cal.findings():  # adequate only by leaving the description
+            judgement = judgement[:2] + ('unexplained', unexplained_findings(cal))
     rmse, stats, verdict, explanation = judgement
     pinned = parameters_at_bounds(effects, values, nominal.candidates)
     if verdict == 'explained' and pinned:
@@ -385,7 +420,13 @@ def _second_opinions(nominal, calibrate_with, effects, values, extendeds, rounds
                        'than the effect can be, so it stands in for a cause that is not in '
                        'the catalogue and is not named')
     if verdict == 'explained' and joint is None and len(effects) == 1 and cal is not None:
-        # one effect of a family the records may not tell apart: say which rivals fit too
-        notes.extend(family_rival_notes(calibrate_with, nominal.problems, nominal.sims, cal,
-                                        nominal.candidates, effects[0], nominal.rmse))
+        # one effect of a family the records may not tell apart: its rivals calibrated
+        # jointly; one decisively better replaces it, the others are said
+        taken, said = family_rivals(calibrate_with, nominal.problems, nominal.sims, cal,
+                                    nominal.candidates, effects[0], nominal.rmse)
+        notes.extend(said)
+        if taken is not None:
+            effects, values, extendeds = list(taken.effects), taken.values, taken.sims
+            rmse, stats, verdict, explanation = nominal.judged(effects, values, extendeds,
+                                                               taken.confirmed)
     return effects, values, extendeds, (rmse, stats, verdict, explanation)

@@ -10,6 +10,7 @@ import os
 import numpy as np
 
 from tca_ros.calibration.candidates import build_candidates, recalibration_spaces
+from tca_ros.calibration.physical_priors import prior_spreads
 from tca_ros.diagnosis.fitting import FitProblem
 from tca_ros.diagnosis.holdout import DEFAULT_VALIDATION
 from tca_ros.records.data import DataError, read_record
@@ -44,8 +45,8 @@ def nominal_with_fallback(records, params_of, cal, from_file, base, options, not
     model = options['model']
     try:
         return nominal_problems(records, params_of, cal is not None or from_file, options,
-                                paths, cal.environments if cal is not None else None) \
-            + (cal, params_of)
+                                paths, cal.environments if cal is not None else None,
+                                described=base) + (cal, params_of)
     except DataError:
         raise
     except (ValueError, ArithmeticError) as exc:  # StabilityError is a ValueError
@@ -62,16 +63,18 @@ def nominal_with_fallback(records, params_of, cal, from_file, base, options, not
                              f'record with model={model} ({again})') from None
 
 
-def nominal_problems(records, params_of, recalibrated, options, paths, scales=None):
+def nominal_problems(records, params_of, recalibrated, options, paths, scales=None,
+                     described=None):
     """Return (problems, problem or set, start values, nominal simulations).
 
     ``recalibrated``: the nominal parameters stay free in the search
-    (candidates.recalibration_spaces); ``scales``: {environment: heat-loss scale}
-    a calibration fitted: a record's environment (``# environment:``) scales its
-    heat loss as the calibration's predictions do (conditions.in_environment; an
-    environment not fitted takes its prior's, a fan's 2.5x). Raises ValueError (a
-    DataError for records whose channels differ) or ArithmeticError when the
-    nominal model cannot simulate a record.
+    (candidates.recalibration_spaces), within the stated uncertainty of the
+    description ``described`` (TcaParams) where given; ``scales``: {environment:
+    heat-loss scale} a calibration fitted: a record's environment (``# environment:``)
+    scales its heat loss as the calibration's predictions do
+    (conditions.in_environment; an environment not fitted takes its prior's, a fan's
+    2.5x). Raises ValueError (a DataError for records whose channels differ) or
+    ArithmeticError when the nominal model cannot simulate a record.
     """
     from tca_ros.calibration.conditions import in_environment
     from tca_ros.diagnosis.problem_set import FitProblemSet
@@ -83,7 +86,8 @@ def nominal_problems(records, params_of, recalibrated, options, paths, scales=No
         raise DataError(f'{paths[1]}: row 1, column {"temperature"!r}: {exc}') from None
     start_values = {}
     if recalibrated:  # the nominal parameters stay free in the search
-        spaces, start_values = recalibration_spaces(params_of[0])
+        spreads = prior_spreads(described) if described is not None else None
+        spaces, start_values = recalibration_spaces(params_of[0], described, spreads)
         problem.recalibration = spaces
         for p in problems:
             p.recalibration = spaces
@@ -133,7 +137,8 @@ def calibrate_training_part(records, params_of, model, fraction, supply, progres
     """Return (Calibration or None, [params per record], note): nominal fitted on training.
 
     Each record is simulated whole on a grid of about CALIBRATION_RATE_HZ; only
-    its training samples (holdout.py) enter the fit. ``calibrate_options``
+    its training samples (holdout.py) enter the fit, or every sample when
+    ``fraction`` is None. ``calibrate_options``
     (fit, start_values, max_nfev) go to calibration.calibrate.
     """
     from tca_ros.calibration.calibration import calibrate, CalibrationError
@@ -141,9 +146,11 @@ def calibrate_training_part(records, params_of, model, fraction, supply, progres
     from tca_ros.diagnosis.holdout import make_holdout
     from tca_ros.model.kinetostatic_models import make_kinetostatic_model
     from tca_ros.model.quasistatic import QuasiStaticUnsupported
-    holdout = make_holdout(fraction, validation)
     coarse = [decimated(r, CALIBRATION_RATE_HZ) for r in records]
-    masks = [holdout.train_mask(c.time, r.duration) for c, r in zip(coarse, records)]
+    masks = None  # fraction None: the whole records (a joint fit's confirmation, joint.py)
+    if fraction is not None:
+        holdout = make_holdout(fraction, validation)
+        masks = [holdout.train_mask(c.time, r.duration) for c, r in zip(coarse, records)]
     try:
         calibrate_options.setdefault('physics', False)  # the catalogue holds the lag
         cal = calibrate(coarse, params_of[0], model=model, check=False, supply=supply,

@@ -1,6 +1,7 @@
 """The one-screen stdout summary of a diagnosis (DiagnosisResult of identification.py)."""
 import os
 
+from tca_ros.calibration.calibration_report import prior_kinds
 from tca_ros.diagnosis.parameter_names import format_nominal, plausibility_lines
 from tca_ros.diagnosis.verdict import gain
 
@@ -28,7 +29,9 @@ def nominal_lines(result):
     if result.calibration is not None:
         return (['nominal parameters calibrated on the training part (as `tca_sim calibrate` '
                  'names them; start: the description; z in prior spreads):']
-                + plausibility_lines(result.calibration))
+                + plausibility_lines(result.calibration)
+                # which values the description gave as measured, estimated or guessed
+                + prior_kinds(result.calibration))
     if result.calibrated_values:
         return [f'nominal parameters from {result.calibrated_file}: ' + ', '.join(
             f'{k} {v:.4g} {unit}'.rstrip(' -') for k, (v, unit) in

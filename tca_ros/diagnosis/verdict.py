@@ -12,7 +12,7 @@ import numpy as np
 from tca_ros.calibration.residuals import residual_stats
 from tca_ros.diagnosis.noise import heldout_deviance_gain, structure_test
 from tca_ros.diagnosis.regressors import input_terms_in_runs
-from tca_ros.diagnosis.verdict_text import verdict_sentence
+from tca_ros.diagnosis.verdict_text import confirmed_sentence, verdict_sentence
 from tca_ros.model.thermal import thermal_time_constant
 
 UNITS = {'displacement': 'm', 'temperature': 'K'}
@@ -112,7 +112,8 @@ def needs_explaining(*stats):
     return [st.channel for part in stats for st in part.values() if st.structured]
 
 
-def decide_verdict(effects, nominal_stats, extended_stats, nominal_whole_stats=None):
+def decide_verdict(effects, nominal_stats, extended_stats, nominal_whole_stats=None,
+                   confirmed=None):
     """Return (verdict, one-sentence explanation) from the residual structure.
 
     A channel is structured when the inputs still predict a practically relevant
@@ -123,8 +124,15 @@ def decide_verdict(effects, nominal_stats, extended_stats, nominal_whole_stats=N
     can show what the held-out part's test does not resolve); 'explained':
     effects added and no channel structured; 'unexplained': structure remains.
     The sentence names, per channel, the statistics that decided and their
-    thresholds (verdict_text.py).
+    thresholds (verdict_text.py). ``confirmed``: (whole-record stats, penalised
+    held-out gain) of a joint fit confirmed on the whole record (joint.py): its
+    effects leave no structure there, and the held-out structure of the
+    training-part fit is its estimation error: 'explained'.
     """
+    if effects and confirmed is not None:
+        whole, gain = confirmed
+        if not any(st.structured for st in whole.values()):
+            return 'explained', confirmed_sentence(effects, extended_stats, whole, gain)
     stats = extended_stats if effects else nominal_stats
     structured = [st.channel for st in stats.values() if st.structured]
     whole = [] if effects or not nominal_whole_stats else \
@@ -145,6 +153,17 @@ def heldout_gain_over(problems, base_sims, sims, added_params):
     checks that its extended model predicts the held-out parts better than the
     calibrated nominal one it started from.
     """
+    deviance, n = heldout_deviance(problems, base_sims, sims)
+    if n < added_params + 2:
+        return -math.inf
+    return deviance - added_params * math.log(n)
+
+
+def heldout_deviance(problems, base_sims, sims):
+    """Return (D, n): the held-out deviance gain of ``sims`` over ``base_sims`` and its count.
+
+    noise.heldout_deviance_gain on the record-rate simulations (one per problem).
+    """
     pairs = []
     for c in problems[0].channels:
         channel = []
@@ -155,10 +174,7 @@ def heldout_gain_over(problems, base_sims, sims, added_params):
                                 measured[i0:i1] - getattr(e, c)[i0:i1], p.sample_rate,
                                 float(p.record.time[i0] - p.record.time[0]), id(p)))
         pairs.append(channel)
-    deviance, n = heldout_deviance_gain(pairs)
-    if n < added_params + 2:
-        return -math.inf
-    return deviance - added_params * math.log(n)
+    return heldout_deviance_gain(pairs)
 
 
 def noise_model_gain(problem, base_residuals, values, added_params):

@@ -113,3 +113,19 @@ def verdict_sentence(verdict, effects, stats, whole_stats=None):
                'read them as its cause') if effects else ''
     return (f'unexplained structure remains {what}: the held-out residual of '
             f'{", ".join(structured)} is structured ({held}){caution}')
+
+
+def confirmed_sentence(effects, heldout_stats, whole_stats, gain):
+    """Return the sentence of an extension explained on the whole record, not the held-out part.
+
+    ``heldout_stats``: the extension fitted on the training part, on the held-out
+    part (structured); ``whole_stats``: it calibrated on the whole record, on the
+    whole record (not structured); ``gain``: its penalised held-out gain over the
+    calibrated nominal model (joint.py, "confirmed on the whole record").
+    """
+    return (f'after adding {" + ".join(effects)}, calibrated jointly on the whole record, '
+            f'no channel of its residual is structured ({channels_text(whole_stats)}); '
+            f'fitted on the training part it predicts the held-out part better than the '
+            f'nominal model (penalised held-out gain {gain:.1f}), and what the inputs still '
+            f'predict there is its parameters\' estimation error, which the whole-record '
+            f'calibration removes ({channels_text(heldout_stats)})')

@@ -1,0 +1,249 @@
+"""Confusion table of the diagnosis by how well the muscle is described (issue 25, item 6).
+
+The records are those of bench_diagnosis_real.py (tca_ros/synthetic/realistic.py:
+muscles +-30 % around a preset, rod plants on odd seeds and cst on even ones while the
+fits run cst, coloured noise, quantisation, drift, nominal power, 1-100 Hz). Each
+case is diagnosed three times on the same records, with the muscle described
+(tca_ros/synthetic/descriptions.py)
+
+* **exact**: the truth's values, every effect off, uncertainties of 2-5 %;
+* **rough**: the truth's values off by up to s = 10-30 %, uncertainties s;
+* **guessed**: the preset-like start, loose uncertainties (x/÷ 2),
+
+each as one record and as several records of the same muscle at other loads
+diagnosed together. Families: null, single catalogue effect (all but coil contact),
+pairs, out-of-catalogue (a sensor scale nonlinearity, fatigue). Right: a null names
+nothing; a single or a pair names exactly its effects (a power loss under a rough or
+guessed description may also be absorbed: nothing named); an out-of-catalogue case is
+"unexplained" with nothing named. The time is CPU seconds of one process
+(time.process_time) per diagnosis, reported per 240 s record at 100 Hz.
+
+    python bench/bench_diagnosis_confusion.py [--null 2] [--per-effect 1] [--pairs 2]
+        [--outside 2] [--loads 0.015,0.04] [--tightness exact,rough,guessed] [--jobs 1]
+        [--save rows.json]
+
+Printed figures, not assertions.
+"""
+import one_blas_thread  # noqa: F401  (before NumPy: one BLAS thread per process)
+import argparse  # noqa: I100, I201
+import collections
+import json
+import multiprocessing
+import os
+import sys
+import tempfile
+import time
+
+from bench_diagnosis_real import EFFECTS, group_of, truth_structured
+import numpy as np
+
+from tca_ros.diagnosis import diagnose
+from tca_ros.params.files import dump_params, load_params
+from tca_ros.synthetic.descriptions import describe, TIGHTNESS
+from tca_ros.synthetic.realistic import conditions, OUTSIDE, realistic_case, \
+    realistic_loads, truth_path
+
+FAMILIES = ('null', 'single', 'pair', 'out-of-catalogue')
+#: an effect a calibrated nominal parameter may take up within a loose enough description
+ABSORBABLE = {'power_loss': ('rough', 'guessed')}
+UNEXPLAINED = 'unexplained'
+
+
+def cases(n_null, per_effect, n_pairs, n_outside, seed0):
+    """Return [(seed, hidden effect names)]: nulls, singles, pairs, out-of-catalogue."""
+    rng = np.random.default_rng(seed0)
+    hidden = [[] for _ in range(n_null)]
+    hidden += [[name] for name in EFFECTS for _ in range(per_effect)]
+    hidden += [list(rng.choice(EFFECTS, size=2, replace=False)) for _ in range(n_pairs)]
+    hidden += [[OUTSIDE[k % len(OUTSIDE)]] for k in range(n_outside)]
+    return [(seed0 + k, h) for k, h in enumerate(hidden)]
+
+
+def _diagnosis(paths, description):
+    """Return (found, helpful, verdict, findings, notes, CPU s) of ``paths`` diagnosed."""
+    t0 = time.process_time()
+    try:
+        r = diagnose(paths if len(paths) > 1 else paths[0], description, progress=False)
+    except Exception as exc:  # a failure is a row of the table, not the end of the run
+        return ([f'error: {type(exc).__name__}'], [], 'error', [], [str(exc)[:200]],
+                time.process_time() - t0)
+    findings = ([(n, round(z, 2), list(e)) for n, z, e in r.calibration.findings()]
+                if r.calibration is not None else [])
+    return (list(r.effects), list(r.helpful), r.verdict, findings, list(r.notes),
+            time.process_time() - t0)
+
+
+def run_case(args):
+    """Write one case's records and diagnose them under each description; return rows."""
+    seed, hidden, directory, masses, tightnesses = args
+    case_dir = os.path.join(directory, f'{seed}_{len(masses)}')
+    os.makedirs(case_dir, exist_ok=True)
+    try:
+        if masses:
+            paths, start_path = realistic_loads(seed, hidden, case_dir, masses)
+        else:
+            path, start_path = realistic_case(seed, hidden, case_dir)
+            paths = [path]
+    except (ValueError, ArithmeticError) as exc:  # the plant itself cannot be simulated
+        return [{'seed': seed, 'hidden': hidden, 'records': max(len(masses), 1),
+                 'skipped': str(exc).splitlines()[0]}]
+    truth, start = load_params(truth_path(case_dir, seed)), load_params(start_path)
+    structured = truth_structured(paths[0], truth_path(case_dir, seed))
+    rows = []
+    for tightness in tightnesses:
+        rng = np.random.default_rng([seed, TIGHTNESS.index(tightness)])
+        description = os.path.join(case_dir, f'{tightness}.yaml')
+        dump_params(describe(truth, start, tightness, rng), description)
+        found, helpful, verdict, findings, notes, cpu = _diagnosis(paths, description)
+        rows.append({'seed': seed, 'hidden': hidden, 'family': group_of(hidden),
+                     'tightness': tightness, 'records': len(paths), 'found': found,
+                     'helpful': helpful, 'verdict': verdict, 'findings': findings,
+                     'notes': notes, 'cpu': cpu, 'truth_structured': structured,
+                     **conditions(seed)})
+    return rows
+
+
+def right(row):
+    """Return True when a row's diagnosis is what its truth calls for."""
+    hidden, found, family = row['hidden'], set(row['found']), row['family']
+    if family == 'out-of-catalogue':
+        return not found and row['verdict'] == UNEXPLAINED
+    if family == 'null':
+        return not found
+    if found == set(hidden):
+        return True
+    absorbable = {h for h in hidden if row['tightness'] in ABSORBABLE.get(h, ())}
+    return bool(absorbable) and found == set(hidden) - absorbable
+
+
+def rival_noted(row):
+    """Return True when a wrong single names one effect and the notes give the truth as its rival.
+
+    The joint stage and the findings say which other effects explain the records as
+    well ('also explained ...', 'also explaining ...'): records that cannot tell
+    them apart (a sensor lag from a second thermal lag without a fast channel).
+    """
+    if row['family'] != 'single' or len(row['found']) != 1:
+        return False
+    return any(('also explain' in n) and row['hidden'][0] in n for n in row['notes'])
+
+
+def named(row):
+    """Return what a row's diagnosis named (or its verdict when it named nothing)."""
+    return ' + '.join(row['found']) or (UNEXPLAINED if row['verdict'] == UNEXPLAINED
+                                        else row['verdict'])
+
+
+def print_tables(rows):
+    """Print the per-family right shares by tightness, the confusion table and timings."""
+    counts = sorted({r['records'] for r in rows})
+    tights = [t for t in TIGHTNESS if any(r['tightness'] == t for r in rows)]
+    head = ''.join(f'{f"{t}, {n} rec":>16s}' for n in counts for t in tights)
+    print(f'{"right (share)":<40s}{head}')
+    for family in FAMILIES:
+        cells = []
+        for n in counts:
+            for t in tights:
+                sub = [r for r in rows if r['family'] == family and r['tightness'] == t
+                       and r['records'] == n]
+                cells.append(f'{sum(map(right, sub))}/{len(sub)}' if sub else '-')
+        if any(c != '-' for c in cells):
+            print(f'{family:<40s}' + ''.join(f'{c:>16s}' for c in cells))
+    cells = []
+    for n in counts:
+        for t in tights:
+            sub = [r for r in rows if r['family'] == 'null' and r['tightness'] == t
+                   and r['records'] == n]
+            cells.append(f'{sum(not r["found"] for r in sub)}/{len(sub)}' if sub else '-')
+    print(f'{"nulls with nothing named":<40s}' + ''.join(f'{c:>16s}' for c in cells))
+    for name, label in (('nominal_power', 'power logged as the command'),
+                        ('truth_structured', 'the truth itself structured')):
+        for value in (False, True):
+            cells = []
+            for n in counts:
+                for t in tights:
+                    sub = [r for r in rows if r['family'] == 'single' and r['tightness'] == t
+                           and r['records'] == n and bool(r[name]) == value]
+                    cells.append(f'{sum(map(right, sub))}/{len(sub)}' if sub else '-')
+            text = f'single, {"" if value else "not "}{label}'
+            print(f'{text[:40]:<40s}' + ''.join(f'{c:>16s}' for c in cells))
+    cells = []
+    for n in counts:
+        for t in tights:
+            sub = [r for r in rows if r['family'] == 'single' and r['tightness'] == t
+                   and r['records'] == n]
+            cells.append(f'{sum(right(r) or rival_noted(r) for r in sub)}/{len(sub)}'
+                         if sub else '-')
+    label = 'single, right or the truth a noted rival'
+    print(f'{label:<40s}' + ''.join(f'{c:>16s}' for c in cells))
+    wrong = [r for r in rows if r['family'] != 'null' and set(r['found']) - set(r['hidden'])]
+    print(f'an effect named that was not hidden: {len(wrong)}/{len(rows)} diagnoses')
+    print(f'\n{"hidden":<34s}{"tightness":<10s}{"rec":>4s}  named (count)')
+    table = collections.defaultdict(collections.Counter)
+    for r in rows:
+        table[(' + '.join(r['hidden']) or 'none', r['tightness'], r['records'])][named(r)] += 1
+    order = {t: k for k, t in enumerate(TIGHTNESS)}
+    for key in sorted(table, key=lambda k: (k[0], k[2], order[k[1]])):
+        cells = ', '.join(f'{k} ({v})' for k, v in table[key].most_common())
+        print(f'{key[0]:<34s}{key[1]:<10s}{key[2]:>4d}  {cells}')
+    print('\nCPU s per diagnosis (one process), 240 s records')
+    for n in counts:
+        for rate in sorted({r['rate'] for r in rows}, reverse=True):
+            secs = [r['cpu'] / n for r in rows if r['records'] == n and r['rate'] == rate]
+            if secs:
+                print(f'  {n} record(s) at {rate:5.0f} Hz: per record median '
+                      f'{np.median(secs):5.1f} s, worst {max(secs):5.1f} s ({len(secs)} runs)')
+
+
+def main(argv=None):
+    """Run the benchmark; print the tables."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument('--null', type=int, default=2)
+    parser.add_argument('--per-effect', type=int, default=1)
+    parser.add_argument('--pairs', type=int, default=2)
+    parser.add_argument('--outside', type=int, default=2)
+    parser.add_argument('--loads', default='0.015,0.04',
+                        help='hanging masses (kg) of the several-record cases ("" for none)')
+    parser.add_argument('--single', type=int, default=1, help='1: also one record alone')
+    parser.add_argument('--tightness', default=','.join(TIGHTNESS))
+    parser.add_argument('--jobs', type=int, default=1)
+    parser.add_argument('--seed', type=int, default=9100)
+    parser.add_argument('--only', default='', help='comma-separated seeds to run')
+    parser.add_argument('--save', default='', help='write the rows as JSON to this file')
+    args = parser.parse_args(argv)
+    masses = tuple(float(m) for m in args.loads.split(',') if m)
+    tights = tuple(t for t in args.tightness.split(',') if t)
+    todo = cases(args.null, args.per_effect, args.pairs, args.outside, args.seed)
+    if args.only:
+        keep = {int(s) for s in args.only.split(',')}
+        todo = [c for c in todo if c[0] in keep]
+    layouts = ([()] if args.single else []) + ([masses] if masses else [])
+    start = time.perf_counter()
+    with tempfile.TemporaryDirectory() as directory:
+        work = [(seed, hidden, directory, m, tights) for m in layouts for seed, hidden in todo]
+        with multiprocessing.Pool(args.jobs) as pool:
+            rows = []
+            for rs in pool.imap_unordered(run_case, work):
+                rows += rs
+                for r in rs:  # one line per diagnosis as it ends (a long run shows its progress)
+                    print(f'  {r["seed"]} {"+".join(r["hidden"]) or "none":<34s} '
+                          f'{r.get("tightness", "-"):<8s} {r["records"]} rec: '
+                          f'{named(r) if "skipped" not in r else "skipped"} '
+                          f'({"right" if "skipped" not in r and right(r) else "-"}, '
+                          f'{r.get("cpu", 0):.0f} s)', file=sys.stderr, flush=True)
+    skipped = [r for r in rows if 'skipped' in r]
+    rows = [r for r in rows if 'skipped' not in r]
+    print(f'{len(rows)} diagnoses of {len(todo)} muscles in {time.perf_counter() - start:.0f} s '
+          f'wall ({args.jobs} jobs)')
+    for r in skipped:
+        print(f'  skipped {r["seed"]} ({"+".join(r["hidden"]) or "none"}, {r["records"]} '
+              f'records): the plant cannot be simulated ({r["skipped"]})')
+    print_tables(rows)
+    if args.save:
+        with open(args.save, 'w') as f:
+            json.dump(rows, f, indent=1, default=str)
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())

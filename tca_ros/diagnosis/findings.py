@@ -1,0 +1,148 @@
+"""What the calibration absorbed, tested as the effect it may stand for (issue 25).
+
+The description's stated uncertainties are the calibration's priors
+(calibration/physical_priors.py). A calibrated value more than SHIFT_Z prior
+spreads from the description is a **finding** (Calibration.findings): the
+calibration moved a value the maker stated to take up the record's signature,
+and the finding names the catalogue effects it can stand for
+(physical_priors.stands_for). When the calibrated nominal model then leaves
+nothing structured (verdict adequate), the findings are the only evidence of an
+effect, and held-out data alone cannot tell a power loss from a steady rise
+moved to match it: the two predict the same. So each effect a finding names is
+calibrated jointly with the nominal parameters (joint.joint_calibrations: the
+description's priors on the nominal values, a nearly flat one on the effect's),
+and it **explains the finding** when
+
+1. the values whose findings name it return within SHIFT_Z prior spreads (and
+   within their physical limits: a value past them counts as a finding here);
+2. the calibration's objective, data (on the nominal calibration's channel scales
+   and effective sample count) plus priors, falls by more than k ln n_eff
+   (k the effect's parameters, n_eff the calibration's effective samples: BIC);
+3. it predicts the held-out part no worse than the shifted nominal model beyond
+   one such penalty, D >= -k ln n (verdict.heldout_deviance, D the held-out
+   deviance gain under the verdict's noise model over n samples);
+4. it leaves no structure by the verdict's test and no parameter at the end of
+   its range.
+
+The effect with the largest fall of the objective is named; the others that pass
+are said as rivals. A finding none of its effects explains leaves the record
+unexplained: the nominal model fits it only with values the description rules out
+(docs/diagnosis_method.md, "Findings").
+"""
+from dataclasses import dataclass
+import math
+
+from tca_ros.calibration.physical_priors import SHIFT_Z
+from tca_ros.diagnosis.joint import calibratable, joint_calibrations
+from tca_ros.diagnosis.verdict import heldout_deviance
+
+
+@dataclass
+class FindingTest:
+    """One effect a finding names, calibrated jointly: how far it explains the finding."""
+
+    fit: object  # joint.JointFit
+    fall: float  # fall of the calibration objective, penalty k ln n_eff subtracted (-)
+    deviance: float  # held-out deviance gain D over the calibrated nominal (-)
+    returned: bool  # the values whose findings name it are back within SHIFT_Z spreads
+    passes: bool  # all four conditions of the module docstring
+
+    @property
+    def name(self):
+        """Return the effect's name."""
+        return self.fit.name
+
+
+def finding_effects(cal):
+    """Return the catalogue effects the findings of Calibration ``cal`` name, largest |z| first.
+
+    The findings and the values past their physical limits (an implausible value
+    stands in for physics the model lacks: a stiffness of 0.3 x the preset's for a
+    modulus that softens). Empty without a calibration or without either.
+    """
+    if cal is None:
+        return []
+    out = []
+    for _, _, effects in sorted(cal.findings(implausible=True), key=lambda f: -abs(f[1])):
+        out += [e for e in effects if e not in out]
+    return out
+
+
+def _returned(joint, names):
+    """Return True when calibrated ``names`` are within SHIFT_Z spreads and plausible.
+
+    ``joint``: the Calibration of an effect and the nominal parameters together.
+    """
+    rows = {r.name: r for r in joint.plausibility()}
+    return all(abs(rows[n].z) <= SHIFT_Z and not rows[n].implausible
+               for n in names if n in rows)
+
+
+def weigh_finding_effect(fit, cal, problems, nominals):
+    """Return the FindingTest of a JointFit ``fit`` (one effect) against the nominal ``cal``.
+
+    ``problems`` and ``nominals``: the diagnosis's FitProblems and the calibrated
+    nominal model's record-rate simulations.
+    """
+    joint = fit.calibration
+    names = [n for n, _, effects in cal.findings(implausible=True)
+             if set(fit.effects) & set(effects)]
+    returned = _returned(joint, names)
+    ref = cal.report
+    penalty = fit.n_params * math.log(max(ref.n_effective, math.e))
+    fall = (ref.data_cost() + ref.prior_cost
+            - joint.report.data_cost(ref) - joint.report.prior_cost - penalty)
+    deviance, n = heldout_deviance(problems, nominals, fit.sims)
+    holds = deviance >= -fit.n_params * math.log(max(n, 2))
+    passes = bool(names and returned and fall > 0.0 and holds and fit.explained
+                  and not fit.pinned)
+    return FindingTest(fit=fit, fall=float(fall), deviance=float(deviance),
+                       returned=returned, passes=passes)
+
+
+def explain_findings(calibrate_with, problems, nominals, cal, candidates):
+    """Return (the FindingTest named or None, notes) of the effects ``cal``'s findings name.
+
+    ``calibrate_with``, ``problems``, ``nominals``, ``candidates``: as
+    joint.joint_calibrations. Each named effect a calibration can fit (not coil
+    contact) is calibrated jointly with the nominal parameters and tested
+    (weigh_finding_effect); the passing one with the largest fall is returned.
+    """
+    by_name = {n: c for n, c in calibratable(candidates).items() if c.starts}
+    groups = [(by_name[n],) for n in finding_effects(cal) if n in by_name]
+    if not groups:
+        return None, []
+    fits = joint_calibrations(calibrate_with, problems, nominals, cal, candidates, groups,
+                              gate=False)
+    tests = sorted((weigh_finding_effect(f, cal, problems, nominals) for f in fits),
+                   key=lambda t: -t.fall)
+    passing = [t for t in tests if t.passes]
+    shifted = ', '.join(f'{n} ({z:+.1f} spreads)'
+                        for n, z, _ in cal.findings(implausible=True))
+    if not passing:
+        tried = ', '.join(f'{t.name} (objective fall {t.fall:+.1f}, held-out deviance '
+                          f'{t.deviance:+.1f}{"" if t.returned else ", values not returned"})'
+                          for t in tests) or 'none could be calibrated'
+        return None, [f'findings {shifted}: the effects they can stand for, calibrated '
+                      f'jointly, do not explain them: {tried}']
+    best = passing[0]
+    notes = [f'findings {shifted}: {best.name}, calibrated jointly with the nominal '
+             f'parameters, brings them back within {SHIFT_Z:g} prior spreads, lowers the '
+             f"calibration's objective (data + priors) by {best.fall:.1f} beyond its "
+             f'penalty and predicts the held-out part as well (deviance '
+             f'{best.deviance:+.1f}): named (docs/diagnosis_method.md, "Findings")']
+    if len(passing) > 1:
+        notes.append('also explaining the findings: ' + ', '.join(
+            f'{t.name} (objective fall {t.fall:.1f})' for t in passing[1:])
+            + '; these records tell them apart only by that fall')
+    return best, notes
+
+
+def unexplained_findings(cal):
+    """Return the verdict sentence of findings no catalogue effect explained (``cal``'s)."""
+    shifted = ', '.join(f'{n} {z:+.1f} prior spreads' for n, z, _ in cal.findings())
+    return ('the calibrated nominal model leaves no structure, but only with values moved '
+            f'beyond the uncertainty the description states ({shifted}; a finding is '
+            f'beyond {SHIFT_Z:g}), and none of the catalogue effects they can stand for '
+            'explains the move: the muscle differs from its description there, or an '
+            'effect outside the catalogue acts')
