@@ -140,42 +140,28 @@ def print_tables(rows):
     tights = [t for t in TIGHTNESS if any(r['tightness'] == t for r in rows)]
     head = ''.join(f'{f"{t}, {n} rec":>16s}' for n in counts for t in tights)
     print(f'{"right (share)":<40s}{head}')
-    for family in FAMILIES:
+
+    def line(label, keep, good=right, skip_empty=False):
+        """Print one row: per (records, tightness) the rows ``keep`` selects, ``good`` of them."""
         cells = []
         for n in counts:
             for t in tights:
-                sub = [r for r in rows if r['family'] == family and r['tightness'] == t
-                       and r['records'] == n]
-                cells.append(f'{sum(map(right, sub))}/{len(sub)}' if sub else '-')
-        if any(c != '-' for c in cells):
-            print(f'{family:<40s}' + ''.join(f'{c:>16s}' for c in cells))
-    cells = []
-    for n in counts:
-        for t in tights:
-            sub = [r for r in rows if r['family'] == 'null' and r['tightness'] == t
-                   and r['records'] == n]
-            cells.append(f'{sum(not r["found"] for r in sub)}/{len(sub)}' if sub else '-')
-    print(f'{"nulls with nothing named":<40s}' + ''.join(f'{c:>16s}' for c in cells))
+                sub = [r for r in rows if r['tightness'] == t and r['records'] == n and keep(r)]
+                cells.append(f'{sum(map(good, sub))}/{len(sub)}' if sub else '-')
+        if not skip_empty or any(c != '-' for c in cells):
+            print(f'{label[:40]:<40s}' + ''.join(f'{c:>16s}' for c in cells))
+
+    for family in FAMILIES:
+        line(family, lambda r, f=family: r['family'] == f, skip_empty=True)
+    line('nulls with nothing named', lambda r: r['family'] == 'null',
+         good=lambda r: not r['found'])
     for name, label in (('nominal_power', 'power logged as the command'),
                         ('truth_structured', 'the truth itself structured')):
         for value in (False, True):
-            cells = []
-            for n in counts:
-                for t in tights:
-                    sub = [r for r in rows if r['family'] == 'single' and r['tightness'] == t
-                           and r['records'] == n and bool(r[name]) == value]
-                    cells.append(f'{sum(map(right, sub))}/{len(sub)}' if sub else '-')
-            text = f'single, {"" if value else "not "}{label}'
-            print(f'{text[:40]:<40s}' + ''.join(f'{c:>16s}' for c in cells))
-    cells = []
-    for n in counts:
-        for t in tights:
-            sub = [r for r in rows if r['family'] == 'single' and r['tightness'] == t
-                   and r['records'] == n]
-            cells.append(f'{sum(right(r) or rival_noted(r) for r in sub)}/{len(sub)}'
-                         if sub else '-')
-    label = 'single, right or the truth a noted rival'
-    print(f'{label:<40s}' + ''.join(f'{c:>16s}' for c in cells))
+            line(f'single, {"" if value else "not "}{label}',
+                 lambda r, k=name, v=value: r['family'] == 'single' and bool(r[k]) == v)
+    line('single, right or the truth a noted rival', lambda r: r['family'] == 'single',
+         good=lambda r: right(r) or rival_noted(r))
     wrong = [r for r in rows if r['family'] != 'null' and set(r['found']) - set(r['hidden'])]
     print(f'an effect named that was not hidden: {len(wrong)}/{len(rows)} diagnoses')
     print(f'\n{"hidden":<34s}{"tightness":<10s}{"rec":>4s}  named (count)')
