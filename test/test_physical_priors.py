@@ -237,3 +237,14 @@ def test_a_muscle_in_still_air_is_predicted_at_another_power_better_with_the_los
     ours = full_nrmse(law.params, test, 'cst')[0]
     without = full_nrmse(constant.params, test, 'cst')[0]
     assert ours < 0.8 * without, (ours, without)
+
+
+def test_a_heat_loss_finding_stands_for_a_power_loss_with_or_without_tau():
+    # tau unchanged: only the power heating the thread; tau moved: the loss itself, or a
+    # power loss the priors let the heat capacity follow part of the way (findings.py
+    # tests each as the cause)
+    from tca_ros.calibration.physical_priors import stands_for, TAU_STEADY_Z
+    assert stands_for('heat_loss', 0.5 * TAU_STEADY_Z) == ('power_loss',)
+    moved = stands_for('heat_loss', -2.3)
+    assert set(moved) == {'radiation', 'nonlinear_convection', 'power_loss'}
+    assert stands_for('heat_loss') == moved  # tau not calibrated: every reading
