@@ -174,7 +174,7 @@ def joint_calibrations(calibrate_with, problems, nominals, cal, candidates, grou
         criterion = heldout_gain_over(problems, nominals, sims, len(own))
         confirmed = None
         whole = getattr(calibrate_with, 'whole', None)
-        if needs_explaining(stats) and criterion > 0.0 and whole is not None:
+        if needs_explaining(stats) and criterion > DECISIVE_DEVIANCE and whole is not None:
             confirmed = confirm_on_whole(whole, problems, cal, fitted + own, joint)
         out.append(JointFit(
             name=' + '.join(names), values=values, n_params=len(own), sims=sims,
@@ -187,8 +187,11 @@ def joint_calibrations(calibrate_with, problems, nominals, cal, candidates, grou
 def confirm_on_whole(whole, problems, cal, fit, joint):
     """Return the whole-record stats of ``fit`` calibrated on the whole records, or None.
 
-    A joint fit on the training part that predicts the held-out part better than
-    the nominal model (penalised gain > 0) may still leave input-correlated
+    A joint fit on the training part that predicts the held-out part decisively
+    better than the nominal model (penalised gain > DECISIVE_DEVIANCE: with the
+    held-out structure set aside, the gain is the only guard against an effect that
+    fits nothing, e.g. a convection exponent of 0.014 at a gain of 0.6) may still
+    leave input-correlated
     residual there: its parameters' estimation error, extrapolated (a power loss
     fitted on 70 % of a record left 1.1-1.2 x the structure floor where the
     plant's own parameters leave none). ``whole(fit, start_values, like)``
