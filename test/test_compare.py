@@ -161,3 +161,31 @@ def test_the_examples_are_package_data(tmp_path):
     shipped = tmp_path / 'lib' / 'tca_ros' / 'data' / 'examples'
     assert sorted(p.name for p in shipped.iterdir()) == sorted(
         ['README.md'] + [n + '.csv' for n in shipped_examples()])
+
+
+def test_compare_scales_a_record_s_air_flow_as_the_calibration_fitted_it(tmp_path):
+    # the example muscle recorded in still air, relabelled as under a fan; the config's
+    # still-air heat loss is a third of the truth's and its calibrated_on header says a
+    # fan triples it: with the fitted scale the comparison is the true model (noise
+    # only); with the prior's 2.5x the heat loss is 17 % short
+    import dataclasses
+    import json
+    from tca_ros.calibration.transfer import header_line
+    from tca_ros.records.data import write_csv_record
+    record = read_record(resolve_example('rec_1p5W_30g'))
+    fan = dataclasses.replace(record, meta={**record.meta, 'environment': 'forced_air'})
+    write_csv_record(fan, str(tmp_path / 'fan.csv'))
+    truth = load_params('free_stroke').with_values(**{'effects.power_loss_fraction': 0.15})
+    still = truth.with_values(**{'thermal.convection_coefficient':
+                                 truth.thermal.convection_coefficient / 3.0})
+    fitted = {'environment': {'still_air': 1.0, 'forced_air': 3.0}}
+    dump_params(still, str(tmp_path / 'fitted.yaml'), header=header_line(fitted))
+    dump_params(still, str(tmp_path / 'prior.yaml'))
+    assert json.loads(header_line(fitted).split(': ', 1)[1]) == fitted
+    errors = {}
+    for name in ('fitted', 'prior'):
+        status, text = run('simulate', '--compare', str(tmp_path / 'fan.csv'), '--config',
+                           str(tmp_path / f'{name}.yaml'), '--out', str(tmp_path / name))
+        assert status == 0, text
+        errors[name] = float(rows_of(text)[0]['temperature_rmse_k'])
+    assert errors['fitted'] < 0.25 < 3.0 < errors['prior']

@@ -140,10 +140,13 @@ def compare(args, out):
         if not value > 0.0:
             raise InputError(f'{name} = {value:g}: must be a positive rate in Hz')
     overrides = {'model': args.model} if args.model else {}
+    from tca_ros.calibration.transfer import read_trained_range
     params = load_params(checked_config(args.config), **overrides)
     if params.rig.mode != 'dead_weight':
         raise InputError(f'--config = {clip(args.config)!r}: rig.mode = {params.rig.mode}; '
                          '--compare simulates dead-weight records (pass --rig dead_weight)')
+    trained = read_trained_range(checked_config(args.config))
+    scales = (trained or {}).get('environment')
     paths = [_resolve(name, '--compare', 'rec_') for name in args.compare]
     posterior = posterior_of_config(args.config, args.draws)
     records = [read_record(path, max_samples=args.max_samples) for path in paths]
@@ -163,12 +166,12 @@ def compare(args, out):
         samples = draw_params(params, posterior, args.draws, seed=0)
     out.write(','.join(SUMMARY_COLUMNS) + '\n')
     for name, record in zip(_unique_stems(paths), records):
-        model = simulate_record(params, record, args.physics_rate)
+        model = simulate_record(params, record, args.physics_rate, scales)
         errors = record_errors(record, model)
         png = os.path.join(folder, name + '.png')
 
         def run(p, rate, r=record):
-            return _outputs(simulate_record(p, r, rate))
+            return _outputs(simulate_record(p, r, rate, scales))
         drawn = band_of(samples, run, _outputs(model), params,
                         band_rate(args.physics_rate, record.sample_rate), args.physics_rate)
         plot_comparison(record, model, errors, png, f'{name}: {label}', drawn[0], posterior)
@@ -198,8 +201,12 @@ def _unique_stems(paths):
     return [s if stems.count(s) == 1 else f'{s}_{i + 1}' for i, s in enumerate(stems)]
 
 
-def simulate_record(params, record, physics_rate):
-    """Return the SimulationResult of ``record``'s inputs (its mass, load, supply, air)."""
+def simulate_record(params, record, physics_rate, scales=None):
+    """Return the SimulationResult of ``record``'s inputs (its mass, load, supply, air).
+
+    ``scales``: {environment: heat-loss scale (-)} the calibration fitted (its params
+    file's ``calibrated_on`` header); an environment without one takes its prior's.
+    """
     from tca_ros.calibration.conditions import in_environment
     from tca_ros.calibration.predictions import record_params
     from tca_ros.model.simulation import simulate
@@ -208,8 +215,8 @@ def simulate_record(params, record, physics_rate):
         row = record.meta_rows.get('supply', 1)
         raise InputError(f"{record.source}: row {row}, column 'supply': {clip(supply)!r}; "
                          f'allowed {", ".join(SUPPLIES)}')
-    # the record's air flow scales the heat loss (its prior's, e.g. a fan's 2.5x)
-    result = simulate(in_environment(record_params(params, record), record, None),
+    # the record's air flow scales the heat loss (fitted, else its prior's: a fan's 2.5x)
+    result = simulate(in_environment(record_params(params, record), record, scales),
                       record.time, record.power, record.load, physics_rate=physics_rate,
                       supply=supply)
     for column in ('displacement', 'temperature', 'resistance'):
