@@ -9,21 +9,16 @@ import os
 import statistics
 import time as wallclock
 
-from tca_ros.calibration.candidates import ABSORBED, absorbed_candidates, parameters_at_bounds
+from tca_ros.calibration.candidates import ABSORBED, absorbed_candidates
 from tca_ros.calibration.conditions import held_strength
 from tca_ros.calibration.progress import Progress
-from tca_ros.diagnosis.findings import explain_findings, finding_effects, \
-    unexplained_findings
+from tca_ros.diagnosis.extension import Nominal, run_search, second_opinions
 from tca_ros.diagnosis.holdout import AUTO, choose_validation, DEFAULT_VALIDATION
-from tca_ros.diagnosis.joint import beats_nominal, family_rivals, joint_extension, \
-    JOINT_NFEV, joint_notes
+from tca_ros.diagnosis.joint import JOINT_NFEV
 from tca_ros.diagnosis.nominal import calibrate_training_part, candidates_of, DiagnosisError, \
     nominal_with_fallback, read_any, record_nominal
 from tca_ros.diagnosis.parameter_names import NOMINAL_NAMES
-from tca_ros.diagnosis.search import MIN_GAIN_PERCENT, search_effects
-from tca_ros.diagnosis.verdict import channel_stats, decide_verdict, gain, holds_one_load, \
-    needs_explaining, NOTHING_TO_EXPLAIN, ONE_LOAD_NOTE, pooled_heldout_rmse
-from tca_ros.model.params_schema import SPECS
+from tca_ros.diagnosis.verdict import gain, holds_one_load, needs_explaining, ONE_LOAD_NOTE
 from tca_ros.records.data import DataError, record_config
 
 VERDICTS = ('explained', 'adequate', 'unexplained')
@@ -213,9 +208,9 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
         notes.append(f'not searched: {", ".join(absorbed)} (the refitted '
                      f'{", ".join(NOMINAL_NAMES[ABSORBED[a]][0] for a in absorbed)} is the '
                      'same parameter)')
-    nominal = _Nominal(problems, problem, start_values, nominals, cal, candidates)
+    nominal = Nominal(problems, problem, start_values, nominals, cal, candidates)
     try:
-        effects, values, extendeds, rounds = _search(nominal, notes)
+        effects, values, extendeds, rounds = run_search(nominal, notes)
     except (ValueError, ArithmeticError) as exc:  # a candidate the stepper cannot run
         raise DiagnosisError(f'{data_path}: the effect search failed with model={model} '
                              f'({str(exc).splitlines()[0]})') from None
@@ -234,7 +229,7 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
                                        False, validation, fit=fit, max_nfev=JOINT_NFEV,
                                        start_values=start_values, like=like)
     calibrate_with.whole = on_whole_records
-    effects, values, extendeds, judgement = _second_opinions(
+    effects, values, extendeds, judgement = second_opinions(
         nominal, calibrate_with, effects, values, extendeds, rounds, notes)
     extended_rmse, extended_stats, verdict, explanation = judgement
     if holds_one_load(records) and (verdict != 'unexplained'
@@ -312,121 +307,3 @@ def _read(data_path, config, calibrated, model):
     nominal_source = calibrated or config
     model = model or load_params(nominal_source).model
     return paths, records, config, model, load_params(nominal_source, model=model)
-
-
-@dataclass
-class _Nominal:
-    """The calibrated nominal model of a diagnosis: its problems, simulations and scores."""
-
-    problems: list  # FitProblem per record
-    problem: object  # the FitProblem, or a FitProblemSet of several records
-    start_values: dict  # the search's start (the recalibration's values)
-    sims: list  # SimulationResult per record at the record rate
-    cal: object  # Calibration, or None
-    candidates: list  # the catalogue candidates searched
-
-    def __post_init__(self):  # noqa: D105 -- the held-out and whole-record scores
-        self.stats = channel_stats(self.problems, self.sims)
-        # an effect may show in the training part only (creep settled before the split)
-        self.whole_stats = channel_stats(self.problems, self.sims, whole=True)
-        self.rmse = pooled_heldout_rmse(self.problems, self.sims, self.problem.channels)
-
-    def judged(self, effects, values, extendeds, confirmed=None):
-        """Return (held-out RMSE, residual stats, verdict, explanation) of an extension.
-
-        ``confirmed``: a joint fit's (whole-record stats, gain) (JointFit.confirmed).
-        """
-        rmse = pooled_heldout_rmse(self.problems, extendeds, self.problem.channels)
-        stats = channel_stats(self.problems, extendeds,
-                              [p.parameters(values) for p in self.problems])
-        return (rmse, stats) + decide_verdict(effects, self.stats, stats, self.whole_stats,
-                                              confirmed)
-
-
-def _search(nominal, notes):
-    """Return (effects, values, extended sims, rounds) of the greedy effect search.
-
-    No search when the nominal model leaves noise by the verdict's test; an
-    extension that does not beat the calibrated nominal by the search's own rule
-    is dropped with a note.
-    """
-    problems, start_values = nominal.problems, nominal.start_values
-    effects, values, rounds = [], dict(start_values), []
-    if needs_explaining(nominal.stats, nominal.whole_stats):
-        effects, values, rounds = search_effects(nominal.problem, nominal.candidates)
-    else:  # what the nominal model leaves is noise by the verdict's test: no search
-        notes.append(NOTHING_TO_EXPLAIN)
-    values = values if effects else dict(start_values)  # not the round-one polish
-    extendeds = [p.simulate_full(values) for p in problems] if effects else nominal.sims
-    added = len([k for k in values if k not in start_values])
-    if effects and not beats_nominal(problems, nominal.sims, extendeds, added, nominal.rmse):
-        # each effect was accepted against the round's base (the nominal with its
-        # calibration refitted); the whole extension must beat the calibrated
-        # nominal itself by the search's own rule, or it is no improvement to report
-        notes.append(f'{" + ".join(effects)} fitted, but not kept: the extended model '
-                     'does not predict the held-out part better than the calibrated '
-                     'nominal model (penalised held-out gain <= 0, or held-out RMS gain '
-                     f'below {MIN_GAIN_PERCENT:g} %)')
-        effects, values, extendeds = [], dict(start_values), nominal.sims
-    return effects, values, extendeds, rounds
-
-
-def _second_opinions(nominal, calibrate_with, effects, values, extendeds, rounds, notes):
-    """Return (effects, values, extended sims, judgement) after the search's checks.
-
-    ``judgement`` is Nominal.judged's (RMSE, stats, verdict, explanation). A record
-    the search leaves unexplained gets the joint stage (joint.py), which also tries
-    the effects the calibration's findings name; a record the calibrated nominal
-    model leaves adequate while its calibration moved values beyond the description
-    gets those effects tested as the finding's cause (findings.py); an explanation
-    with a parameter at the end of its range is not one; a single effect of a
-    family gets its rivals said (joint.family_rivals).
-    """
-    judgement = nominal.judged(effects, values, extendeds)
-    cal, joint = nominal.cal, None
-    named_by_findings = finding_effects(cal)
-    if judgement[2] == 'unexplained' and cal is not None and rounds:
-        # the search's nominal refit is narrow: calibrate its first round's best
-        # candidates together with the nominal parameters (joint.py)
-        joint, rivals = joint_extension(calibrate_with, nominal.problems, nominal.sims, cal,
-                                        nominal.candidates, rounds, nominal.rmse,
-                                        extra=named_by_findings)
-        if joint is not None:
-            notes.extend(joint_notes(joint, rivals, effects))
-            effects, values, extendeds = list(joint.effects), joint.values, joint.sims
-            judgement = nominal.judged(effects, values, extendeds, joint.confirmed)
-    if joint is None and judgement[2] != 'explained' and named_by_findings:
-        # the calibration moved stated values: their effects tested as the cause, whether
-        # the moved values leave nothing structured (adequate) or not (unexplained: a
-        # power loss predicts the held-out part as the shifted heat loss does, so the
-        # joint stage's held-out rule cannot take it; the priors can)
-        adequate = judgement[2] == 'adequate'
-        taken, said = explain_findings(calibrate_with, nominal.problems, nominal.sims, cal,
-                                       nominal.candidates)
-        notes.extend(said)
-        if taken is not None:
-            joint = taken.fit
-            effects, values, extendeds = list(joint.effects), joint.values, joint.sims
-            judgement = nominal.judged(effects, values, extendeds, joint.confirmed)
-        elif adequate and cal.findings():  # adequate only by leaving the description
-            judgement = judgement[:2] + ('unexplained', unexplained_findings(cal))
-    rmse, stats, verdict, explanation = judgement
-    pinned = parameters_at_bounds(effects, values, nominal.candidates)
-    if verdict == 'explained' and pinned:
-        verdict = 'unexplained'
-        explanation = ('the effects found leave no structure, but '
-                       + ', '.join(f'{n} = {v:.4g} {SPECS[n].unit}' for n, v, _ in pinned)
-                       + ' sits at the end of its physical range: the data ask for more '
-                       'than the effect can be, so it stands in for a cause that is not in '
-                       'the catalogue and is not named')
-    if verdict == 'explained' and joint is None and len(effects) == 1 and cal is not None:
-        # one effect of a family the records may not tell apart: its rivals calibrated
-        # jointly; one decisively better replaces it, the others are said
-        taken, said = family_rivals(calibrate_with, nominal.problems, nominal.sims, cal,
-                                    nominal.candidates, effects[0], nominal.rmse)
-        notes.extend(said)
-        if taken is not None:
-            effects, values, extendeds = list(taken.effects), taken.values, taken.sims
-            rmse, stats, verdict, explanation = nominal.judged(effects, values, extendeds,
-                                                               taken.confirmed)
-    return effects, values, extendeds, (rmse, stats, verdict, explanation)

@@ -191,11 +191,11 @@ def confirm_on_whole(whole, problems, cal, fit, joint):
     better than the nominal model (penalised gain > DECISIVE_DEVIANCE: with the
     held-out structure set aside, the gain is the only guard against an effect that
     fits nothing, e.g. a convection exponent of 0.014 at a gain of 0.6) may still
-    leave input-correlated
-    residual there: its parameters' estimation error, extrapolated (a power loss
-    fitted on 70 % of a record left 1.1-1.2 x the structure floor where the
-    plant's own parameters leave none). ``whole(fit, start_values, like)``
-    calibrates the same parameters on every sample (start: the training fit
+    leave input-correlated residual there: its parameters' estimation error,
+    extrapolated (a power loss fitted on 70 % of a record left 1.1-1.2 x the
+    structure floor where the plant's own parameters leave none).
+    ``whole(fit, start_values, like)`` calibrates the same parameters on every
+    sample (start: the training fit
     ``joint``); None when that fails or its residual on the whole record is still
     structured by the verdict's test, else {channel: ResidualStats} of it. The
     held-out gain is the evidence against overfitting; this is the adequacy test

@@ -127,5 +127,5 @@ def confirmed_sentence(effects, heldout_stats, whole_stats, gain):
             f'no channel of its residual is structured ({channels_text(whole_stats)}); '
             f'fitted on the training part it predicts the held-out part better than the '
             f'nominal model (penalised held-out gain {gain:.1f}), and what the inputs still '
-            f'predict there is its parameters\' estimation error, which the whole-record '
+            f"predict there is its parameters' estimation error, which the whole-record "
             f'calibration removes ({channels_text(heldout_stats)})')

@@ -1,0 +1,138 @@
+"""From the calibrated nominal model to the extension a diagnosis reports.
+
+The greedy effect search (search.py) on the calibrated nominal model, then its
+second opinions: the joint calibration of the best candidates with all the
+nominal parameters (joint.py, confirmed on the whole record where the held-out
+part shows only estimation error), the findings' effects tested as their cause
+(findings.py) and a named effect's family rivals (docs/diagnosis_method.md,
+"Joint calibration" and "Findings").
+"""
+from dataclasses import dataclass
+
+from tca_ros.calibration.candidates import parameters_at_bounds
+from tca_ros.diagnosis.findings import explain_findings, finding_effects, \
+    unexplained_findings
+from tca_ros.diagnosis.joint import beats_nominal, family_rivals, joint_extension, \
+    joint_notes
+from tca_ros.diagnosis.search import MIN_GAIN_PERCENT, search_effects
+from tca_ros.diagnosis.verdict import channel_stats, decide_verdict, needs_explaining, \
+    NOTHING_TO_EXPLAIN, pooled_heldout_rmse
+from tca_ros.model.params_schema import SPECS
+
+
+@dataclass
+class Nominal:
+    """The calibrated nominal model of a diagnosis: its problems, simulations and scores."""
+
+    problems: list  # FitProblem per record
+    problem: object  # the FitProblem, or a FitProblemSet of several records
+    start_values: dict  # the search's start (the recalibration's values)
+    sims: list  # SimulationResult per record at the record rate
+    cal: object  # Calibration, or None
+    candidates: list  # the catalogue candidates searched
+
+    def __post_init__(self):  # noqa: D105 -- the held-out and whole-record scores
+        self.stats = channel_stats(self.problems, self.sims)
+        # an effect may show in the training part only (creep settled before the split)
+        self.whole_stats = channel_stats(self.problems, self.sims, whole=True)
+        self.rmse = pooled_heldout_rmse(self.problems, self.sims, self.problem.channels)
+
+    def judged(self, effects, values, extendeds, confirmed=None):
+        """Return (held-out RMSE, residual stats, verdict, explanation) of an extension.
+
+        ``confirmed``: a joint fit's (whole-record stats, gain) (JointFit.confirmed).
+        """
+        rmse = pooled_heldout_rmse(self.problems, extendeds, self.problem.channels)
+        stats = channel_stats(self.problems, extendeds,
+                              [p.parameters(values) for p in self.problems])
+        return (rmse, stats) + decide_verdict(effects, self.stats, stats, self.whole_stats,
+                                              confirmed)
+
+
+def run_search(nominal, notes):
+    """Return (effects, values, extended sims, rounds) of the greedy effect search.
+
+    No search when the nominal model leaves noise by the verdict's test; an
+    extension that does not beat the calibrated nominal by the search's own rule
+    is dropped with a note.
+    """
+    problems, start_values = nominal.problems, nominal.start_values
+    effects, values, rounds = [], dict(start_values), []
+    if needs_explaining(nominal.stats, nominal.whole_stats):
+        effects, values, rounds = search_effects(nominal.problem, nominal.candidates)
+    else:  # what the nominal model leaves is noise by the verdict's test: no search
+        notes.append(NOTHING_TO_EXPLAIN)
+    values = values if effects else dict(start_values)  # not the round-one polish
+    extendeds = [p.simulate_full(values) for p in problems] if effects else nominal.sims
+    added = len([k for k in values if k not in start_values])
+    if effects and not beats_nominal(problems, nominal.sims, extendeds, added, nominal.rmse):
+        # each effect was accepted against the round's base (the nominal with its
+        # calibration refitted); the whole extension must beat the calibrated
+        # nominal itself by the search's own rule, or it is no improvement to report
+        notes.append(f'{" + ".join(effects)} fitted, but not kept: the extended model '
+                     'does not predict the held-out part better than the calibrated '
+                     'nominal model (penalised held-out gain <= 0, or held-out RMS gain '
+                     f'below {MIN_GAIN_PERCENT:g} %)')
+        effects, values, extendeds = [], dict(start_values), nominal.sims
+    return effects, values, extendeds, rounds
+
+
+def second_opinions(nominal, calibrate_with, effects, values, extendeds, rounds, notes):
+    """Return (effects, values, extended sims, judgement) after the search's checks.
+
+    ``judgement`` is Nominal.judged's (RMSE, stats, verdict, explanation). A record
+    the search leaves unexplained gets the joint stage (joint.py), which also tries
+    the effects the calibration's findings name; a record the calibrated nominal
+    model leaves adequate while its calibration moved values beyond the description
+    gets those effects tested as the finding's cause (findings.py); an explanation
+    with a parameter at the end of its range is not one; a single effect of a
+    family gets its rivals said (joint.family_rivals).
+    """
+    judgement = nominal.judged(effects, values, extendeds)
+    cal, joint = nominal.cal, None
+    named_by_findings = finding_effects(cal)
+    if judgement[2] == 'unexplained' and cal is not None and rounds:
+        # the search's nominal refit is narrow: calibrate its first round's best
+        # candidates together with the nominal parameters (joint.py)
+        joint, rivals = joint_extension(calibrate_with, nominal.problems, nominal.sims, cal,
+                                        nominal.candidates, rounds, nominal.rmse,
+                                        extra=named_by_findings)
+        if joint is not None:
+            notes.extend(joint_notes(joint, rivals, effects))
+            effects, values, extendeds = list(joint.effects), joint.values, joint.sims
+            judgement = nominal.judged(effects, values, extendeds, joint.confirmed)
+    if joint is None and judgement[2] != 'explained' and named_by_findings:
+        # the calibration moved stated values: their effects tested as the cause, whether
+        # the moved values leave nothing structured (adequate) or not (unexplained: a
+        # power loss predicts the held-out part as the shifted heat loss does, so the
+        # joint stage's held-out rule cannot take it; the priors can)
+        adequate = judgement[2] == 'adequate'
+        taken, said = explain_findings(calibrate_with, nominal.problems, nominal.sims, cal,
+                                       nominal.candidates)
+        notes.extend(said)
+        if taken is not None:
+            joint = taken.fit
+            effects, values, extendeds = list(joint.effects), joint.values, joint.sims
+            judgement = nominal.judged(effects, values, extendeds, joint.confirmed)
+        elif adequate and cal.findings():  # adequate only by leaving the description
+            judgement = judgement[:2] + ('unexplained', unexplained_findings(cal))
+    rmse, stats, verdict, explanation = judgement
+    pinned = parameters_at_bounds(effects, values, nominal.candidates)
+    if verdict == 'explained' and pinned:
+        verdict = 'unexplained'
+        explanation = ('the effects found leave no structure, but '
+                       + ', '.join(f'{n} = {v:.4g} {SPECS[n].unit}' for n, v, _ in pinned)
+                       + ' sits at the end of its physical range: the data ask for more '
+                       'than the effect can be, so it stands in for a cause that is not in '
+                       'the catalogue and is not named')
+    if verdict == 'explained' and joint is None and len(effects) == 1 and cal is not None:
+        # one effect of a family the records may not tell apart: its rivals calibrated
+        # jointly; one decisively better replaces it, the others are said
+        taken, said = family_rivals(calibrate_with, nominal.problems, nominal.sims, cal,
+                                    nominal.candidates, effects[0], nominal.rmse)
+        notes.extend(said)
+        if taken is not None:
+            effects, values, extendeds = list(taken.effects), taken.values, taken.sims
+            rmse, stats, verdict, explanation = nominal.judged(effects, values, extendeds,
+                                                               taken.confirmed)
+    return effects, values, extendeds, (rmse, stats, verdict, explanation)
