@@ -130,9 +130,10 @@ def decide_verdict(effects, nominal_stats, extended_stats, nominal_whole_stats=N
     training-part fit is its estimation error: 'explained'.
     """
     if effects and confirmed is not None:
-        whole, gain = confirmed
-        if not any(st.structured for st in whole.values()):
-            return 'explained', confirmed_sentence(effects, extended_stats, whole, gain)
+        whole_refit, heldout_gain = confirmed
+        if not needs_explaining(whole_refit):
+            return 'explained', confirmed_sentence(effects, extended_stats, whole_refit,
+                                                   heldout_gain)
     stats = extended_stats if effects else nominal_stats
     structured = [st.channel for st in stats.values() if st.structured]
     whole = [] if effects or not nominal_whole_stats else \
