@@ -188,7 +188,7 @@ def test_an_extension_worse_than_the_calibrated_nominal_is_not_kept(tmp_path, mo
     # held-out RMSE 7.14 -> 9.86 mm, listed as helpful). The whole extension must beat
     # the calibrated nominal; here a search that returns a 15 K ambient offset on a
     # record without one is made to run, and its result is not kept.
-    from tca_ros.diagnosis import identification
+    from tca_ros.diagnosis import extension, identification
     path, start = realistic_case(31, [], str(tmp_path), rate=1.0,
                                  **dict(REALISTIC, duration=100.0))
 
@@ -197,8 +197,9 @@ def test_an_extension_worse_than_the_calibrated_nominal_is_not_kept(tmp_path, mo
         values['effects.ambient_offset'] = 15.0
         return ['ambient_offset'], values, []
 
-    monkeypatch.setattr(identification, 'search_effects', bad_search)
-    monkeypatch.setattr(identification, 'needs_explaining', lambda *stats: ['displacement'])
+    monkeypatch.setattr(extension, 'search_effects', bad_search)
+    for module in (extension, identification):
+        monkeypatch.setattr(module, 'needs_explaining', lambda *stats: ['displacement'])
     result = diagnose(path, start, progress=False)
     assert result.effects == [] and result.helpful == []
     assert any('ambient_offset fitted, but not kept' in n for n in result.notes), result.notes
@@ -210,7 +211,7 @@ def test_an_extension_must_also_gain_held_out_rms_over_the_nominal(tmp_path, mon
     # leaves a larger but smoother held-out residual (the real 2 W group: a sensor lag
     # at 4.45 -> 4.82 mm was listed as helpful); as in the search, the held-out RMS
     # must fall by MIN_GAIN_PERCENT too
-    from tca_ros.diagnosis import identification, joint
+    from tca_ros.diagnosis import extension, identification, joint
     path, start = realistic_case(31, [], str(tmp_path), rate=1.0,
                                  **dict(REALISTIC, duration=100.0))
 
@@ -218,8 +219,9 @@ def test_an_extension_must_also_gain_held_out_rms_over_the_nominal(tmp_path, mon
         return ['ambient_offset'], dict(problem.base_values,
                                         **{'effects.ambient_offset': 15.0}), []
 
-    monkeypatch.setattr(identification, 'search_effects', bad_search)
-    monkeypatch.setattr(identification, 'needs_explaining', lambda *stats: ['displacement'])
+    monkeypatch.setattr(extension, 'search_effects', bad_search)
+    for module in (extension, identification):
+        monkeypatch.setattr(module, 'needs_explaining', lambda *stats: ['displacement'])
     monkeypatch.setattr(joint, 'heldout_gain_over', lambda *args: 100.0)
     result = diagnose(path, start, progress=False)
     assert result.effects == [] and result.helpful == []

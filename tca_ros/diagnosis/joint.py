@@ -195,8 +195,9 @@ def confirm_on_whole(whole, problems, cal, fit, joint):
     extrapolated (a power loss fitted on 70 % of a record left 1.1-1.2 x the
     structure floor where the plant's own parameters leave none).
     ``whole(fit, start_values, like)`` calibrates the same parameters on every
-    sample (start: the training fit ``joint``); None when that fails or its residual on the whole record is still
-    structured by the verdict's test, else {channel: ResidualStats} of it. The
+    sample (start: the training fit ``joint``); None when that fails or its
+    residual on the whole record is still structured by the verdict's test, else
+    {channel: ResidualStats} of it. The
     held-out gain is the evidence against overfitting; this is the adequacy test
     of the effect's model (docs/diagnosis_method.md, "Confirmed on the whole
     record").
