@@ -48,6 +48,12 @@ class Nominal:
         return (rmse, stats) + decide_verdict(effects, self.stats, stats, self.whole_stats,
                                               confirmed)
 
+    def adopted(self, fit):
+        """Return (effects, values, sims, judgement) of a JointFit taken as the extension."""
+        effects = list(fit.effects)
+        return effects, fit.values, fit.sims, self.judged(effects, fit.values, fit.sims,
+                                                          fit.confirmed)
+
 
 def run_search(nominal, notes):
     """Return (effects, values, extended sims, rounds) of the greedy effect search.
@@ -99,8 +105,7 @@ def second_opinions(nominal, calibrate_with, effects, values, extendeds, rounds,
                                         extra=named_by_findings)
         if joint is not None:
             notes.extend(joint_notes(joint, rivals, effects))
-            effects, values, extendeds = list(joint.effects), joint.values, joint.sims
-            judgement = nominal.judged(effects, values, extendeds, joint.confirmed)
+            effects, values, extendeds, judgement = nominal.adopted(joint)
     if joint is None and judgement[2] != 'explained' and named_by_findings:
         # the calibration moved stated values: their effects tested as the cause, whether
         # the moved values leave nothing structured (adequate) or not (unexplained: a
@@ -112,8 +117,7 @@ def second_opinions(nominal, calibrate_with, effects, values, extendeds, rounds,
         notes.extend(said)
         if taken is not None:
             joint = taken.fit
-            effects, values, extendeds = list(joint.effects), joint.values, joint.sims
-            judgement = nominal.judged(effects, values, extendeds, joint.confirmed)
+            effects, values, extendeds, judgement = nominal.adopted(joint)
         elif adequate and cal.findings():  # adequate only by leaving the description
             judgement = judgement[:2] + ('unexplained', unexplained_findings(cal))
     rmse, stats, verdict, explanation = judgement
@@ -132,7 +136,6 @@ def second_opinions(nominal, calibrate_with, effects, values, extendeds, rounds,
                                     nominal.candidates, effects[0], nominal.rmse)
         notes.extend(said)
         if taken is not None:
-            effects, values, extendeds = list(taken.effects), taken.values, taken.sims
-            rmse, stats, verdict, explanation = nominal.judged(effects, values, extendeds,
-                                                               taken.confirmed)
+            effects, values, extendeds, judgement = nominal.adopted(taken)
+            rmse, stats, verdict, explanation = judgement
     return effects, values, extendeds, (rmse, stats, verdict, explanation)
