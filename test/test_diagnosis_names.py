@@ -51,13 +51,14 @@ def test_a_shift_beyond_two_prior_spreads_is_a_finding_with_what_it_can_stand_fo
     from tca_ros.calibration.physical_priors import stands_for
     rows = [row('heat_loss', 2.1), row('stiffness_scale', 1.9)]
     cal = types.SimpleNamespace(  # Calibration.findings: the shifted rows, tau moved
-        plausibility=lambda: rows, derived=lambda: {},
+        plausibility=lambda: rows, derived=lambda: {}, time_constant_z=lambda: 1.5,
         findings=lambda: [(r.name, r.z, stands_for(r.name, 1.5)) for r in rows if r.shifted])
     lines = plausibility_lines(cal)
     assert lines[0].rstrip().endswith('SHIFTED') and 'SHIFTED' not in lines[1]
     findings = [s for s in lines if s.startswith('finding:')]
     assert len(findings) == 1 and 'heat_loss moved +2.1 prior spreads' in findings[0]
     assert 'radiation' in findings[0] and 'nonlinear_convection' in findings[0]
+    assert 'more air flow than the description assumes' in findings[0]  # tau moved too
 
 
 def test_calibrate_and_diagnose_print_one_name_and_value_per_parameter(tmp_path, capsys):
@@ -105,8 +106,8 @@ def test_a_diagnosis_names_its_calibration_as_calibrate_does(tmp_path):
 
 
 def test_the_derived_steady_rise_says_the_power_loss_it_amounts_to():
-    def cal(rise):
-        derived = {'thermal_time_constant': types.SimpleNamespace(value=3.02, prior=3.0),
+    def cal(rise, tau=3.02):
+        derived = {'thermal_time_constant': types.SimpleNamespace(value=tau, prior=3.0),
                    'steady_rise': types.SimpleNamespace(value=rise, prior=75.0)}
         return types.SimpleNamespace(plausibility=lambda: [], derived=lambda: derived,
                                      findings=lambda: [])
@@ -115,3 +116,5 @@ def test_the_derived_steady_rise_says_the_power_loss_it_amounts_to():
     assert 'thermal time constant 3.02 s (1.01 x the description)' in line
     line, = plausibility_lines(cal(80.0))  # a higher rise: no power loss can do that
     assert 'power loss' not in line
+    line, = plausibility_lines(cal(27.0, tau=1.08))  # a fan: tau fell with the rise
+    assert 'power loss' not in line and 'more heat is carried away' in line

@@ -8,13 +8,14 @@ import csv
 import dataclasses
 import io
 import json
+import re
 
 import numpy as np
 import pytest
 
-from tca_ros.calibration.posterior import BAND_LABEL, check_posterior, draw_coordinates, \
-    draw_params, mean_params, POSTERIOR_KEY, PosteriorError, read_posterior, UNMEASURED_NOTE, \
-    write_line
+from tca_ros.calibration.posterior import BAND_LABEL, CALIBRATED_FLOOR, check_posterior, \
+    draw_coordinates, draw_params, mean_params, POSTERIOR_KEY, PosteriorError, read_posterior, \
+    UNMEASURED_NOTE, write_line
 from tca_ros.cli.compare import simulate_record
 from tca_ros.cli.main import main
 from tca_ros.model.tca_params import to_flat_dict
@@ -76,6 +77,68 @@ def test_the_posterior_line_round_trips_and_the_mean_is_the_file(calibrated):
         value, stderr = stated[name]
         sd = np.sqrt(cov[i, i]) * (value if log else 1.0)
         assert sd == pytest.approx(stderr, rel=0.06, abs=1e-12), name
+
+
+def test_the_file_states_what_the_calibration_left_unknown_as_its_uncertainty(calibrated):
+    folder, rs = calibrated
+    post = read_posterior(folder / 'cal.yaml')
+    written = load_params(str(folder / 'cal.yaml')).uncertainty
+    tighter = []
+    for i, (name, log) in enumerate(zip(post['names'], post['log'])):
+        if not hasattr(written, name):
+            continue
+        sd = float(np.sqrt(post['cov'][i][i]))
+        left = np.expm1(sd) if log else sd
+        described = getattr(rs.start.uncertainty, name)
+        floor = CALIBRATED_FLOOR.get(name, CALIBRATED_FLOOR['relative'])
+        assert getattr(written, name) == pytest.approx(min(described, max(left, floor))), name
+        if getattr(written, name) < 0.8 * described:
+            tighter.append(name)
+    # the step records fix some values far better than the description did
+    assert len(tighter) >= 2, tighter
+
+
+def test_a_record_in_a_draught_against_the_calibrated_file_is_a_heat_loss_finding(calibrated):
+    """The calibrated file's tightened priors reveal what the description's absorb."""
+    from tca_ros.diagnosis import diagnose, format_summary
+    folder, rs = calibrated
+    cal = load_params(str(folder / 'cal.yaml'))
+    held = rs.records[1]
+    fan = cal.with_values(**{'thermal.convection_coefficient':
+                             2.8 * cal.thermal.convection_coefficient})
+    noise = np.random.default_rng(3).normal(0.0, 20e-6, held.time.size)
+    for name, params in (('still', cal), ('fan', fan)):
+        sim = simulate_record(params, held, 500.0)
+        write_csv_record(dataclasses.replace(held, displacement=sim.displacement + noise),
+                         folder / f'{name}.csv')
+    texts = {}
+    for name in ('still', 'fan'):
+        for config in ('cal.yaml', 'start.yaml'):
+            result = diagnose(str(folder / f'{name}.csv'), str(folder / config), model='cst',
+                              progress=False)
+            texts[name, config] = format_summary(result)
+    assert 'finding: heat_loss' in texts['fan', 'cal.yaml']
+    assert 'more air flow than the description assumes' in texts['fan', 'cal.yaml']
+    assert 'verdict: adequate' not in texts['fan', 'cal.yaml']
+    assert 'finding: heat_loss' not in texts['still', 'cal.yaml']
+    # against the description's loose heat-loss prior (x/÷ 1.6) the same move weighs less
+    z = {config: float(re.search(r'heat_loss +\S+ W/K +\(start \S+, z ([-+.\d]+)',
+                                 texts['fan', config]).group(1))
+         for config in ('cal.yaml', 'start.yaml')}
+    assert z['cal.yaml'] > z['start.yaml'] + 0.5, z
+
+
+def test_calibrating_the_same_records_from_the_calibrated_file_warns(calibrated, capsys):
+    folder, _ = calibrated
+    capsys.readouterr()
+    status, _ = run('calibrate', folder / 'r0.csv', '--config', folder / 'cal.yaml', '--model',
+                    'cst', '--out', folder / 'again.yaml', '--quiet')
+    err = capsys.readouterr().err
+    assert status == 0
+    assert 'was calibrated on 1 of these records (r0.csv' in err and 'counts twice' in err
+    status, _ = run('calibrate', folder / 'r1.csv', '--config', folder / 'cal.yaml', '--model',
+                    'cst', '--out', folder / 'new.yaml', '--quiet')
+    assert status == 0 and 'counts twice' not in capsys.readouterr().err  # a new record
 
 
 def test_draws_have_the_posterior_covariance_and_apply_like_the_calibration(calibrated):

@@ -196,14 +196,21 @@ class Calibration:
         past their physical limits too (what they stand for, for the diagnosis).
         """
         from tca_ros.calibration.physical_priors import stands_for
-        tau_z = None
-        if 'heat_capacity' in self.priors and 'heat_loss' in self.priors:
-            v, pr = self.report.values, self.priors
-            shift = (np.log(v['heat_capacity'] / pr['heat_capacity'].prior)
-                     - np.log(v['heat_loss'] / pr['heat_loss'].prior))
-            tau_z = float(shift / np.hypot(pr['heat_capacity'].spread, pr['heat_loss'].spread))
+        tau_z = self.time_constant_z()
         return [(r.name, r.z, stands_for(r.name, tau_z)) for r in self.plausibility()
                 if (r.shifted and not r.implausible) or (implausible and r.implausible)]
+
+    def time_constant_z(self):
+        """Return the shift of tau = C / G (eq. 1) from the description's, in prior spreads.
+
+        None unless both the heat capacity and the heat loss were fitted.
+        """
+        if 'heat_capacity' not in self.priors or 'heat_loss' not in self.priors:
+            return None
+        v, pr = self.report.values, self.priors
+        shift = (np.log(v['heat_capacity'] / pr['heat_capacity'].prior)
+                 - np.log(v['heat_loss'] / pr['heat_loss'].prior))
+        return float(shift / np.hypot(pr['heat_capacity'].spread, pr['heat_loss'].spread))
 
     def combinations(self):
         """Return [(a, b, 'product'|'ratio', relative spread)] the records fix jointly only."""

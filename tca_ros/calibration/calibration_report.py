@@ -112,11 +112,13 @@ def format_plausibility(cal):
                      'priors share the rest')
     from tca_ros.calibration.experiments import format_experiments, next_experiments
     lines += format_experiments(next_experiments(cal))
+    from tca_ros.calibration.physical_priors import finding_causes
+    tau_z = cal.time_constant_z()
     for name, z, effects in cal.findings():
         lines.append(f'finding: {name} moved z = {z:+.1f} prior spreads from the description '
                      '(beyond its stated uncertainty): the muscle differs there, or '
-                     + (' or '.join(effects) if effects else 'an effect the model lacks')
-                     + ' stands in (`tca_sim diagnose` tests it)')
+                     + finding_causes(name, z, effects, tau_z)
+                     + ' stands in (`tca_sim diagnose` tests the effects)')
     bad = [r.name for r in rows if r.implausible]
     if bad:
         lines.append('warning: implausible ' + ', '.join(bad) + ': outside the physical limits '

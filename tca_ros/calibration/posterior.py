@@ -44,6 +44,11 @@ BAND_LABEL = 'model 90 % band (calibration uncertainty)'
 UNMEASURED_NOTE = '(not measured in calibration: from the priors)'
 OUTPUT_CHANNELS = ('displacement', 'temperature', 'resistance')
 REQUIRED = ('names', 'log', 'mean', 'cov', 'low', 'high', 'base', 'channels')
+#: The least uncertainty a calibrated params file states for a value it fitted (decision
+#: C9): relative for the log parameters, K for T_z, s for the lag. A posterior standard
+#: deviation counts only the records' noise; the same muscle logged again on another day
+#: (another clamp, humidity, history) differs by more.
+CALIBRATED_FLOOR = {'relative': 0.1, 'expansion_zero_temperature': 2.0, 'actuation_lag': 0.5}
 
 
 class PosteriorError(ValueError):
@@ -80,6 +85,31 @@ def posterior_of(cal):
             'channels': list(cal.channels), 'model': cal.model,
             'residual_rms': residual_rms(cal.report),
             'unknown_stderr': [n for n, u in zip(keep, unknown) if u]}
+
+
+def calibrated_uncertainty(params, posterior):
+    """Return ``params`` stating, in ``uncertainty.*``, what the calibration left unknown.
+
+    For each parameter of the ``posterior`` (posterior_of) that the uncertainty
+    section describes: the posterior standard deviation (relative, exp(sd) - 1, for
+    a log parameter; K or s for T_z and the lag), at least CALIBRATED_FLOOR and at
+    most the description's value. The calibrated file is the next calibration's and
+    diagnosis's description: a later record that moves a calibrated value beyond
+    these is a finding (docs/calibration.md, "A calibrated file is a measured
+    description"). Values the records left at their priors keep about the
+    description's spread.
+    """
+    stated = params.uncertainty
+    values = {}
+    for i, (name, log) in enumerate(zip(posterior['names'], posterior['log'])):
+        if not hasattr(stated, name):
+            continue
+        sd = math.sqrt(max(float(posterior['cov'][i][i]), 0.0))
+        left = math.expm1(sd) if log else sd
+        floor = CALIBRATED_FLOOR.get(name, CALIBRATED_FLOOR['relative'])
+        described = float(getattr(stated, name))
+        values[f'uncertainty.{name}'] = min(described, max(left, floor))
+    return params.with_values(**values) if values else params
 
 
 def residual_rms(report):

@@ -8,6 +8,7 @@ import json
 import os
 
 SUPPLIES = ('power', 'voltage')
+CALIBRATED_BY = 'Calibrated by `tca_sim calibrate` on:'  # header line before the records
 EXAMPLE = """example (the shipped synthetic recording of a free-stroke TCA; cst is the fast model):
   tca_sim calibrate tca_ros/data/example_recording.csv --config free_stroke --model cst \\
       --out my_tca_cal.yaml"""
@@ -67,6 +68,23 @@ def _supply(args, records):
     return found.pop()
 
 
+def _calibrated_on(path):
+    """Return the absolute paths of the records a params file says it was calibrated on."""
+    out, inside = [], False
+    with open(path, encoding='utf-8') as fh:
+        for line in fh:
+            if not line.startswith('#'):
+                break
+            text = line[1:].rstrip('\n')
+            if text.strip().startswith(CALIBRATED_BY):
+                inside = True
+            elif inside and text.startswith('   '):
+                out.append(os.path.abspath(text.strip()))
+            else:
+                inside = False
+    return out
+
+
 def cmd_calibrate(args, out):
     """Calibrate; print the summary; write the params file and the report."""
     from tca_ros.calibration.calibration import calibrate, CalibrationError
@@ -85,6 +103,14 @@ def cmd_calibrate(args, out):
     records = [read_record(path) for path in args.records]
     config = args.config or record_config(records[0])
     params = load_params(checked_config(config))
+    again = sorted(set(_calibrated_on(checked_config(config)))
+                   & {os.path.abspath(p) for p in args.records})
+    if again:
+        from tca_ros.cli.common import warn
+        warn('calibrate', f'--config {config} was calibrated on {len(again)} of these records '
+             f"({os.path.basename(again[0])}...): its uncertainty section is that fit's "
+             'posterior, so their evidence counts twice; calibrate from the description '
+             '(docs/calibration.md, "A calibrated file is a measured description")')
     names = [n.strip() for n in args.fit.split(',') if n.strip()]
     supply = _supply(args, records)
     try:
@@ -93,16 +119,17 @@ def cmd_calibrate(args, out):
     except CalibrationError as exc:
         raise InputError(str(exc)) from None
     out.write(format_summary(cal) + '\n')
-    header = ['Calibrated by `tca_sim calibrate` on:'] + [f'  {p}' for p in args.records]
+    header = [CALIBRATED_BY] + [f'  {os.path.abspath(p)}' for p in args.records]
     header += [f'start config: {config}; model {cal.model}; supply {supply}']
     for est in cal.report.estimates.values():
         state = 'fitted' if est.determined else 'NOT determined: mostly its prior'
         header.append(f'{est.name} = {est.value:.5g} +- {est.stderr:.2g} {est.unit} ({state})')
     from tca_ros.calibration.transfer import header_line, trained_range
     header.append(header_line(trained_range(cal)))
-    from tca_ros.calibration.posterior import posterior_of, write_line
-    header.append(write_line(posterior_of(cal)))  # docs/own_muscle.md, "Uncertainty"
-    muscle, start_note = muscle_at_rest(cal.params)
+    from tca_ros.calibration.posterior import calibrated_uncertainty, posterior_of, write_line
+    posterior = posterior_of(cal)
+    header.append(write_line(posterior))  # docs/own_muscle.md, "Uncertainty"
+    muscle, start_note = muscle_at_rest(calibrated_uncertainty(cal.params, posterior))
     if folder:
         os.makedirs(folder, exist_ok=True)
     dump_params(muscle, args.out, header='\n'.join(header) + start_note)

@@ -18,6 +18,9 @@ Catalogue effects keep their dotted ``effects.*`` names. The module also says
 which catalogue effects a calibrated parameter that left its description can
 stand for (issue 25: what calibration absorbs is a finding).
 """
+import math
+
+from tca_ros.calibration.physical_priors import finding_causes
 from tca_ros.model.thermal import fiber_mass, heat_capacity, thermal_conductance
 
 #: params-file entry -> (calibration name, unit); the value converts by :func:`nominal_value`
@@ -89,9 +92,12 @@ def plausibility_lines(cal):
         lines.append(f'  {row.name:<28s}{row.value:>11.4g} {row.unit:<6s}(start '
                      f'{row.prior:.4g}, z {row.z:+.1f}{ratio}){flag}')
     lines += _derived_lines(cal)
-    for name, z, effects in cal.findings():
+    findings = cal.findings()
+    tau_z = cal.time_constant_z() if findings else None
+    for name, z, effects in findings:
         row = next(r for r in rows if r.name == name)
-        why = ' or '.join(effects) if effects else 'a cause outside the catalogue'
+        why = finding_causes(name, z, effects, tau_z) if effects else \
+            'a cause outside the catalogue'
         lines.append(f'finding: {name} moved {z:+.1f} prior spreads from the description '
                      f'({row.prior:.4g} -> {row.value:.4g} {row.unit}): the muscle differs '
                      f'there, or the calibration absorbed an effect: {why}')
@@ -116,7 +122,10 @@ def _derived_lines(cal):
     t_ratio, r_ratio = tau.value / tau.prior, rise.value / rise.prior
     line = (f'  derived: thermal time constant {tau.value:.3g} s ({t_ratio:.2f} x the '
             f'description), steady rise {rise.value:.3g} K/W ({r_ratio:.2f} x)')
-    if r_ratio < 1.0:
+    if r_ratio < 1.0 and abs(math.log(t_ratio)) < 0.5 * abs(math.log(r_ratio)):
         line += (f'; a power loss of {100 * (1.0 - r_ratio):.0f} % (power_loss) would lower '
                  'the rise so and leave the time constant as described')
+    elif r_ratio < 1.0:
+        line += ('; the time constant fell with the rise: more heat is carried away than '
+                 'described, not only less power delivered')
     return [line]
