@@ -58,19 +58,15 @@ from tca_ros.calibration.conditions import environment_priors, environment_scale
 from tca_ros.calibration.predictions import defect_corrections, full_predictions, \
     normalised_rmse, peak_response, predictor, record_params
 from tca_ros.calibration.progress import Progress
+from tca_ros.calibration.warm_start import starts_warm  # noqa: F401 (calibration.starts_warm)
 from tca_ros.model.kinetostatics import static_elongation
 from tca_ros.model.static_maps import make_statics
 
 DISPLACEMENT_SCALE_FLOOR = 1e-6  # m, residual scale floor (a good encoder's resolution)
 FORCE_SCALE_FLOOR = 1e-5  # N, likewise (a load cell's resolution, 1 mg)
 NOMINAL_LEVELS = 2  # a power column with at most this many distinct values is nominal
-WARM_START_WINDOW_S = 1.0  # s of power off at the start needed to see a warm start
-WARM_START_SAMPLES = 8  # samples of power off at the start needed likewise
-WARM_START_SIGMAS = 4.0  # the fall over them that is no noise, in its standard errors
-WARM_START_MIN_FALL_K = 0.3  # K, and at least this fall (a thermocouple's resolution)
 BASE_NFEV = 40  # solver evaluations of a calibration by default
 PHYSICS_NFEV = 15  # more per added physics parameter (PHYSICS_FIT)
-POWER_OFF_SHARE = 0.05  # a logged power below this share of its peak is taken as off
 
 
 class CalibrationError(ValueError):
@@ -80,34 +76,6 @@ class CalibrationError(ValueError):
 def is_nominal_power(records):
     """Return True when every record's power takes at most NOMINAL_LEVELS values (on/off)."""
     return all(np.unique(r.power).size <= NOMINAL_LEVELS for r in records)
-
-
-def starts_warm(record, ambient):
-    """Return True when the record's logged temperature shows it beginning warm.
-
-    Before the first power (a logged power above POWER_OFF_SHARE of its peak), a
-    muscle at rest holds its temperature; one that has not cooled from an earlier
-    heating still falls. Warm: the record logs temperature, the power stays off for
-    at least WARM_START_WINDOW_S and WARM_START_SAMPLES samples, the first quarter of
-    that span is above ``ambient`` (degC) and its median temperature exceeds the last
-    quarter's by WARM_START_SIGMAS standard errors and WARM_START_MIN_FALL_K. Without
-    a temperature channel the start is taken at rest: a creeping coil stretches there
-    as a cooling one does (docs/diagnosis_method.md, "Records that begin warm").
-    """
-    from tca_ros.calibration.residuals import noise_sigma
-    if record.temperature is None:
-        return False
-    # a logged power reads noise at rest: off is below POWER_OFF_SHARE of its peak
-    on = np.flatnonzero(record.power > POWER_OFF_SHARE * max(float(np.max(record.power)), 0.0))
-    end = int(on[0]) if on.size else record.time.size
-    if end < WARM_START_SAMPLES or record.time[end - 1] - record.time[0] < WARM_START_WINDOW_S:
-        return False
-    rest = record.temperature[:end]
-    quarter = max(1, end // 4)
-    first, last = float(np.median(rest[:quarter])), float(np.median(rest[-quarter:]))
-    sigma = noise_sigma(record.temperature) / np.sqrt(quarter)
-    return (first > ambient and first - last > WARM_START_MIN_FALL_K
-            and first - last > WARM_START_SIGMAS * np.sqrt(2.0) * sigma)
 
 
 def match_loaded_length(params, length, load, model=None):

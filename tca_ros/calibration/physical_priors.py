@@ -170,17 +170,18 @@ def stands_for(name, tau_z=None):
     return STANDS_FOR.get(name, ())
 
 
-def finding_causes(name, z, effects, tau_z=None):
+def finding_causes(name, z, effects, tau_z=None, tau_determined=True):
     """Return the words naming what a finding of ``name`` (shifted ``z`` spreads) stands for.
 
     The catalogue ``effects`` (stands_for); a heat loss above the description's
-    with the time constant moved is also what another air flow does (a draught, a
-    fan): not an effect of the muscle but a condition of the record, which a
+    with the time constant moved, or not determined by the records
+    (``tau_determined``), is also what another air flow does (a draught, a fan):
+    not an effect of the muscle but a condition of the record, which a
     ``# environment:`` header gives its own heat-loss scale (conditions.py).
     """
     words = ' or '.join(effects) if effects else 'an effect the model lacks'
-    if name == 'heat_loss' and z > 0.0 and not (tau_z is not None
-                                                and abs(tau_z) < TAU_STEADY_Z):
+    steady = tau_z is not None and abs(tau_z) < TAU_STEADY_Z and tau_determined
+    if name == 'heat_loss' and z > 0.0 and not steady:
         words += (', or more air flow than the description assumes (a draught, a fan: '
                   "a condition of the record, which its '# environment:' header fits "
                   'with a heat-loss scale of its own)')

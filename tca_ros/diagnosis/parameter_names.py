@@ -94,9 +94,11 @@ def plausibility_lines(cal):
     lines += _derived_lines(cal)
     findings = cal.findings()
     tau_z = cal.time_constant_z() if findings else None
+    tau = cal.derived().get('thermal_time_constant') if findings else None
     for name, z, effects in findings:
         row = next(r for r in rows if r.name == name)
-        why = finding_causes(name, z, effects, tau_z) if effects else \
+        why = finding_causes(name, z, effects, tau_z, tau is None or tau.determined) \
+            if effects else \
             'a cause outside the catalogue'
         lines.append(f'finding: {name} moved {z:+.1f} prior spreads from the description '
                      f'({row.prior:.4g} -> {row.value:.4g} {row.unit}): the muscle differs '
