@@ -5,6 +5,7 @@ stroke-temperature characteristic than the description's (not the calibration's
 quasi-static reduction), logged at 5 Hz with coloured noise and quantisation.
 """
 import io
+import re
 
 import numpy as np
 import pytest
@@ -246,6 +247,9 @@ def test_simulate_warns_when_a_calibrated_muscle_runs_past_its_calibration(
                  '--rate', '2'], out=io.StringIO()) == 0
     err = capsys.readouterr().err
     assert 'warning: extrapolates: power 0.9 W above the calibrated 0.45 W' in err, err
+    hottest = read_trained_range(cal)['peak_temperature_c']
+    hot = re.search(r'extrapolates: predicted (\d+) degC above the calibrated (\d+) degC', err)
+    assert hot and int(hot.group(2)) == round(hottest) and int(hot.group(1)) > hottest + 10
     profile.write_text('time,power\n0,0\n2,0.4\n10,0\n12,0\n')
     assert main(['simulate', '--config', cal, '--model', 'cst', '--input', str(profile),
                  '--rate', '2'], out=io.StringIO()) == 0

@@ -109,11 +109,23 @@ def extrapolation(record, trained, peak_temperature):
     if env not in trained.get('environment', {STILL_AIR: 1.0}):
         out.append(f'environment {env} not calibrated (its heat loss is taken at the prior '
                    f"{scale_of(env, None):g}x still air's)")
+    hot = temperature_extrapolation(trained, peak_temperature)
+    return out + ([hot] if hot else [])
+
+
+def temperature_extrapolation(trained, peak_temperature):
+    """Return the warning of a predicted peak (degC) past ``trained``'s hottest, or ''.
+
+    Past the hottest temperature the records reached, the stroke-temperature
+    characteristic (eq. 2's Gamma(T), the curvature) is the model's extrapolation:
+    nothing there was fitted, and a real thread heated towards its annealing
+    temperature may stop following it (a stroke that peaks and falls while heated).
+    """
     top = trained.get('peak_temperature_c')
-    if top is not None and peak_temperature > top + TEMPERATURE_MARGIN_K:
-        out.append(f'predicted {peak_temperature:.0f} degC above the calibrated '
-                   f'{top:.0f} degC')
-    return out
+    if top is None or not peak_temperature > top + TEMPERATURE_MARGIN_K:
+        return ''
+    return (f'predicted {peak_temperature:.0f} degC above the calibrated {top:.0f} degC '
+            '(the stroke-temperature characteristic there is extrapolated, not fitted)')
 
 
 @dataclass

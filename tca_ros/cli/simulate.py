@@ -91,9 +91,10 @@ def cmd_simulate(args, out):
     held = {name: resample_hold(t_in, values, t) for name, values in columns.items()
             if name != 'time'}
     names = RIG_COLUMNS[p.rig.mode]
-    _warn_extrapolation(args.config, p, held)
+    trained = _warn_extrapolation(args.config, p, held)
     result, event = _run(p, t, held, args.physics_rate, names)
     check_finite({name: result[name] for name in names[1:]}, result['time'], 's')
+    _warn_hotter(trained, result)
     out.write(','.join(names) + '\n')
     for row in zip(*(result[name] for name in names)):
         out.write(','.join(f'{v:.9g}' for v in row) + '\n')
@@ -105,19 +106,34 @@ def cmd_simulate(args, out):
     return EXIT_EVENT
 
 
+def _warn_hotter(trained, result):
+    """Warn when the run heats the muscle past the hottest its calibration predicted."""
+    from tca_ros.calibration.transfer import temperature_extrapolation
+    temperature = result.get('temperature')
+    if trained is None or temperature is None or not len(temperature):
+        return
+    line = temperature_extrapolation(trained, float(np.max(temperature)))
+    if line:
+        sys.stderr.write(f'tca_sim simulate: warning: extrapolates: {line}\n')
+
+
 def _warn_extrapolation(config, params, held):
-    """Warn (stderr, one line each) where a calibrated muscle is run past its calibration."""
+    """Warn (stderr, one line each) where a calibrated muscle is run past its calibration.
+
+    Return the calibration's trained range (None: the config is not calibrated).
+    """
     from tca_ros.calibration.transfer import profile_extrapolation, read_trained_range
     from tca_ros.cli.common import checked_config
     trained = read_trained_range(checked_config(config))
     if trained is None:
-        return
+        return None
     load = held.get('load')
     for line in profile_extrapolation(
             trained, float(np.max(held['power'])),
             float(np.max(load)) if load is not None else params.dynamics.load,
             params.rig.mode):
         sys.stderr.write(f'tca_sim simulate: warning: extrapolates: {line}\n')
+    return trained
 
 
 def _run(p, t, held, physics_rate, names):
