@@ -11,8 +11,9 @@ stroke) of the held-out records, how many calibrated values are implausible,
 on how many held-out records the variant beats the lumped model (a paired count)
 (docs/calibration.md, "Physical priors"), beside the lumped first-order-plus-
 dead-time model fitted on the same training records and the repeat floor (each
-record predicted by the mean of its repeats at its condition). Figures, not
-assertions.
+record predicted by the mean of its repeats at its condition). The last variant
+describes each muscle with the thread that another muscle's calibration measured
+(SIBLINGS; `tca_sim config new --material-from`). Figures, not assertions.
 """
 import argparse
 import glob
@@ -24,9 +25,11 @@ import numpy as np
 
 from tca_ros.calibration.calibration import calibrate, DEFAULT_FIT
 from tca_ros.calibration.lumped import fit_lumped, lumped_nrmse
+from tca_ros.calibration.posterior import calibrated_uncertainty, posterior_of
 from tca_ros.calibration.predictions import full_nrmse
 from tca_ros.calibration.validation import condition_of, repeat_floor
 from tca_ros.model.muscle import describe_muscle, MuscleSpec
+from tca_ros.model.muscle_sibling import sibling_preset, with_sibling_thread
 from tca_ros.params.thread_presets import load_thread_presets
 from tca_ros.records.data import read_record
 
@@ -53,6 +56,7 @@ MUSCLES = {
 #: calibrate adds by default; whether the description keeps the still-air heat-loss law
 #: that describe_muscle writes, effects.convection_exponent, or the paper's constant h)
 CURVE, LAG = 'expansion_zero_temperature', 'actuation_lag'
+SIBLING_VARIANT = 'default, sibling thread'
 VARIANTS = {
     'default': (None, True, True),  # the lag; the curvature on 2+ power levels; h(dT)
     'default, constant h': (None, True, False),
@@ -62,7 +66,13 @@ VARIANTS = {
     '+ actuation lag': ((LAG,), False, False),
     '+ both': ((CURVE, LAG), False, False),
     '+ both + h(dT)': ((CURVE, LAG), False, True),
+    # the default, the muscle described with the thread its sibling's calibration measured
+    SIBLING_VARIANT: (None, True, True),
 }
+#: the muscle whose calibration (on all its records, default fit) gives each muscle's
+#: thread in the SIBLING_VARIANT (`tca_sim config new --material-from`): the same lab's
+#: silver-plated nylon 6,6, twisted and annealed alike
+SIBLINGS = {'salp_tca': 'salp_24awg', 'salp_24awg': 'salp_tca', 'video_mandrel': 'salp_tca'}
 
 
 def held_out(records, params, model, variant):
@@ -81,6 +91,21 @@ def held_out(records, params, model, variant):
         ours += full_nrmse(cal.params, groups[cond], cal.model)
         lumped += lumped_nrmse(fit_lumped(train).values, groups[cond])
     return ours, lumped, bad
+
+
+def sibling_description(name, data, model):
+    """Return ``name``'s description with the thread of its SIBLINGS's calibration, or None."""
+    sibling = SIBLINGS.get(name)
+    if sibling not in data:
+        return None
+    start = describe_muscle(MUSCLES[sibling], load_thread_presets()).params
+    cal = calibrate(data[sibling], start, model=model, check=False)
+    measured = calibrated_uncertainty(cal.params, posterior_of(cal))
+    presets = load_thread_presets()
+    thread = MUSCLES[name].thread
+    presets[thread] = sibling_preset(presets[thread], measured)
+    params, _ = with_sibling_thread(describe_muscle(MUSCLES[name], presets).params, measured)
+    return params
 
 
 def main(argv=None):
@@ -107,6 +132,11 @@ def main(argv=None):
         cells = []
         for name, records in data.items():
             params = describe_muscle(MUSCLES[name], load_thread_presets()).params
+            if variant == SIBLING_VARIANT:
+                params = sibling_description(name, data, args.model)
+                if params is None:
+                    cells.append(f'{"- (no sibling)":>24s}')
+                    continue
             start = time.perf_counter()
             ours, lumped, bad = held_out(records, params, args.model, VARIANTS[variant])
             seconds = time.perf_counter() - start

@@ -55,6 +55,11 @@ def add_parser(subparsers):
     new.add_argument('--thread', default='nylon66_silver',
                      help='thread preset of config/threads/threads.yaml (nylon66_silver, '
                           'nylon6_monofilament)')
+    new.add_argument('--material-from', metavar='CAL.yaml', default=None,
+                     help='a params file `tca_sim calibrate` wrote for another muscle of the '
+                          'same thread: its calibrated material (Gamma(T), untwist gain, '
+                          'moduli, c_p, h, actuation lag) and their uncertainty replace the '
+                          "preset's (docs/describe.md)")
     new.add_argument('--thread-diameter', type=float, default=None,
                      help='diameter of the twisted thread, 2 r_t (m)')
     new.add_argument('--coil', default=None,
@@ -125,11 +130,27 @@ def cmd_config_new(args, out):
     if os.path.exists(args.out) and not args.force:
         raise ParameterError(f'--out = {args.out}: exists (use --force to overwrite)')
     spec = spec_from_args(args)
+    presets, sibling = load_thread_presets(), None
+    if args.material_from:
+        from tca_ros.cli.common import checked_config
+        from tca_ros.model.muscle_sibling import sibling_preset
+        if not os.path.isfile(args.material_from):
+            raise ParameterError(f'--material-from = {args.material_from!r}: no such file '
+                                 '(a params file `tca_sim calibrate` wrote)')
+        sibling = load_params(checked_config(args.material_from, '--material-from'))
+        if spec.thread in presets:
+            presets[spec.thread] = sibling_preset(presets[spec.thread], sibling)
     try:
-        result = describe_muscle(spec, load_thread_presets())
+        result = describe_muscle(spec, presets)
     except MuscleError as exc:
         raise ParameterError(exc.renamed(FLAGS)) from None
     params = result.params
+    if sibling is not None:
+        from tca_ros.cli.common import warn
+        from tca_ros.model.muscle_sibling import with_sibling_thread
+        params, warnings = with_sibling_thread(params, sibling)
+        for line in warnings:
+            warn('config new', line)
     derived = dict(result.derived)
     if spec.coil != 'conical':
         if spec.loaded_length is None:
@@ -138,6 +159,10 @@ def cmd_config_new(args, out):
                 loaded_length_at_ambient(params), 'm',
                 f'static length at ambient under the mass ({params.model} model)')
     header = _header(args, spec, result.preset, derived)
+    if sibling is not None:
+        header += (f'\nMaterial from the calibrated muscle {args.material_from}: Gamma(T), '
+                   'untwist gain, moduli, c_p, h c_s, actuation lag and their uncertainty '
+                   '(docs/describe.md, "Another muscle of the same thread")')
     dump_params(params, args.out, header=header)
     load_params(args.out)  # the file must read back through the same schema
     out.write(f'wrote {args.out}\n')
