@@ -160,9 +160,10 @@ def cmd_config_new(args, out):
                 f'static length at ambient under the mass ({params.model} model)')
     header = _header(args, spec, result.preset, derived)
     if sibling is not None:
-        header += (f'\nMaterial from the calibrated muscle {args.material_from}: Gamma(T), '
-                   'untwist gain, moduli, c_p, h c_s, actuation lag and their uncertainty '
-                   '(docs/describe.md, "Another muscle of the same thread")')
+        header = header.replace('fiber.untwist_gain = 1, ', '') + (
+            f'\nMaterial from the calibrated muscle {args.material_from}: Gamma(T), '
+            'untwist gain, moduli, c_p, h c_s, actuation lag and their uncertainty '
+            '(docs/describe.md, "Another muscle of the same thread")')
     dump_params(params, args.out, header=header)
     load_params(args.out)  # the file must read back through the same schema
     out.write(f'wrote {args.out}\n')
