@@ -14,6 +14,7 @@ its plain outputs into messages. Time modes, parameters and examples: docs/node.
 """
 import gc
 import sys
+import time
 
 from rcl_interfaces.msg import SetParametersResult
 import rclpy
@@ -46,6 +47,11 @@ from tca_ros.ros.node_task import TaskPlayer
 CLOCK_QOS = QoSProfile(depth=1)  # reliable writer; rclpy's clock reader is best effort
 FAST_PERIOD = 1e-3  # s, wall period of the tick timer in publish_clock mode, factor 0
 LOCKSTEP_POLL = 0.01  # s, wall period of that timer in lockstep (wake-ups cost ~0.1 ms)
+# s of wall time both ends of the loop stay matched before the first lockstep tick: the
+# node's writer matches a new reader 55-70 ms before that reader matches the writer here,
+# and the first state, sent in between, was lost (the node then repeated it only after
+# lockstep_timeout, 1 s; docs/decisions.md N7)
+MATCH_SETTLE = 0.25
 
 
 class TcaSimNode(Node):
@@ -81,6 +87,7 @@ class TcaSimNode(Node):
         self.add_pre_set_parameters_callback(numbers_as_declared_types)
         self.add_on_set_parameters_callback(self._on_set_parameters)
         self._timer = None
+        self._matched_since = None  # monotonic s since a controller was matched
         self._make_timer()
         self._diagnostics = DiagnosticsPublisher(
             self, self.core.muscle_state, lambda: time_msg(self.core.now_ns()), self._wall)
@@ -150,12 +157,22 @@ class TcaSimNode(Node):
             self.core.episode.fail(f'{type(exc).__name__}: {exc}')
 
     def _peers_matched(self):
-        """Return True when a controller reads the state and writes commands."""
+        """Return True when a controller reads the state and writes commands.
+
+        ... and has done so for MATCH_SETTLE s: the controller's reader may match the
+        node's writer only some time after the node's writer matched it.
+        """
         readers = self._outputs.joint.get_subscription_count() \
             + self._outputs.displacement.get_subscription_count()
         writers = self._power_sub.get_publisher_count() \
             + self._voltage_sub.get_publisher_count()
-        return readers > 0 and writers > 0
+        if not (readers > 0 and writers > 0):
+            self._matched_since = None
+            return False
+        now = time.monotonic()
+        if self._matched_since is None:
+            self._matched_since = now
+        return now - self._matched_since >= MATCH_SETTLE
 
     def log_time_summary(self):
         """Log the sim time reached and its ratio to wall time (publish_clock mode)."""
