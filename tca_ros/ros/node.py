@@ -81,7 +81,8 @@ class TcaSimNode(Node):
         self.core = NodeCore(
             params, cfg, sim, owns_time=self._owns_time,
             clock_ns=lambda: self.get_clock().now().nanoseconds,
-            publish_tick=self._publish_tick, republish=self._republish,
+            publish_time=self._publish_clock, publish_tick=self._publish_state,
+            republish=self._republish,
             log=Log(self._log_line),
             rig=self._rig, task=task)
         self.add_pre_set_parameters_callback(numbers_as_declared_types)
@@ -185,11 +186,6 @@ class TcaSimNode(Node):
                 f'({sim / max(wall, 1e-9):.1f}x real time)')
 
     # -- outputs ------------------------------------------------------------------------
-    def _publish_tick(self, now_ns):
-        """Publish /clock and the state of a tick of the own clock."""
-        self._publish_clock(now_ns)
-        self._publish_state(now_ns)
-
     def _republish(self):
         """Publish the last tick again (same values): lockstep before the first command."""
         self._publish_clock(self.core.own_clock.sim_ns)

@@ -87,14 +87,19 @@ class OwnClock:
     task : node_task.TaskPlayer or node_core.NoTask
         A scored task's bookkeeping (its loads and references, missed commands).
     publish_tick, republish : callables
-        ``publish_tick(now_ns)`` publishes /clock and the state of a tick;
+        ``publish_tick(now_ns)`` publishes the state of a tick;
         ``republish()`` the last one again (lockstep, while no controller answered).
     log : node_episode.Log
+    publish_time : callable or None
+        ``publish_time(now_ns)`` publishes /clock at the time of the tick about to be
+        stepped, before its physics: a reader of /clock takes it while the physics runs,
+        not between the state and its answer (it still comes before the state).
     """
 
-    def __init__(self, episode, task, publish_tick, republish, log):
+    def __init__(self, episode, task, publish_tick, republish, log, publish_time=None):
         self.episode = episode
         self.task = task
+        self._publish_time = publish_time or (lambda now_ns: None)
         self._publish_tick = publish_tick
         self._republish = republish
         self._log = log
@@ -143,6 +148,7 @@ class OwnClock:
                 return
             self.started = True
             self.wall_first_tick = time.monotonic()
+            self._publish_time(self.sim_ns)
             self._tick()
             return
         if self.awaiting:
@@ -186,6 +192,7 @@ class OwnClock:
                 self.task.finish(ep.command_power(self.sim_ns), ep.broken)
                 return
             self.ticks_done += 1
+            self._publish_time(self.sim_ns + round(tick_s * NS))
             ep.advance(physics_steps_per_tick(cfg), self.sim_ns)
             self.sim_ns += round(tick_s * NS)
             self._tick()
