@@ -14,7 +14,6 @@ its plain outputs into messages. Time modes, parameters and examples: docs/node.
 """
 import gc
 import sys
-import time
 
 from rcl_interfaces.msg import SetParametersResult
 import rclpy
@@ -28,6 +27,7 @@ from std_srvs.srv import Trigger
 
 from tca_ros.model.params_schema import ParameterError, SCHEMA, SPECS
 from tca_ros.params.row_cache import install_disk_cache
+from tca_ros.ros.node_clocks import Settled
 from tca_ros.ros.node_cmdline import check_ros_arguments, init_quietly, log_fatal
 from tca_ros.ros.node_core import NodeCore
 from tca_ros.ros.node_diagnostics import DiagnosticsPublisher
@@ -47,10 +47,9 @@ from tca_ros.ros.node_task import TaskPlayer
 CLOCK_QOS = QoSProfile(depth=1)  # reliable writer; rclpy's clock reader is best effort
 FAST_PERIOD = 1e-3  # s, wall period of the tick timer in publish_clock mode, factor 0
 LOCKSTEP_POLL = 0.01  # s, wall period of that timer in lockstep (wake-ups cost ~0.1 ms)
-# s of wall time both ends of the loop stay matched before the first lockstep tick: the
-# node's writer matches a new reader 55-70 ms before that reader matches the writer here,
-# and the first state, sent in between, was lost (the node then repeated it only after
-# lockstep_timeout, 1 s; docs/decisions.md N7)
+# s of wall time a controller stays matched before the first lockstep tick: the node's
+# writer matched tca_pid's reader 55-70 ms before that reader matched the writer, and the
+# first state, sent in between, was lost (repeated only after lockstep_timeout, 1 s)
 MATCH_SETTLE = 0.25
 
 
@@ -81,14 +80,13 @@ class TcaSimNode(Node):
         self.core = NodeCore(
             params, cfg, sim, owns_time=self._owns_time,
             clock_ns=lambda: self.get_clock().now().nanoseconds,
-            publish_time=self._publish_clock, publish_tick=self._publish_state,
-            republish=self._republish,
+            publish_tick=self._publish_tick, republish=self._republish,
             log=Log(self._log_line),
             rig=self._rig, task=task)
         self.add_pre_set_parameters_callback(numbers_as_declared_types)
         self.add_on_set_parameters_callback(self._on_set_parameters)
         self._timer = None
-        self._matched_since = None  # monotonic s since a controller was matched
+        self._settled = Settled(MATCH_SETTLE)  # a controller matched for MATCH_SETTLE s
         self._make_timer()
         self._diagnostics = DiagnosticsPublisher(
             self, self.core.muscle_state, lambda: time_msg(self.core.now_ns()), self._wall)
@@ -160,20 +158,13 @@ class TcaSimNode(Node):
     def _peers_matched(self):
         """Return True when a controller reads the state and writes commands.
 
-        ... and has done so for MATCH_SETTLE s: the controller's reader may match the
-        node's writer only some time after the node's writer matched it.
+        ... and has done so for MATCH_SETTLE s (node_clocks.Settled).
         """
         readers = self._outputs.joint.get_subscription_count() \
             + self._outputs.displacement.get_subscription_count()
         writers = self._power_sub.get_publisher_count() \
             + self._voltage_sub.get_publisher_count()
-        if not (readers > 0 and writers > 0):
-            self._matched_since = None
-            return False
-        now = time.monotonic()
-        if self._matched_since is None:
-            self._matched_since = now
-        return now - self._matched_since >= MATCH_SETTLE
+        return self._settled(readers > 0 and writers > 0)
 
     def log_time_summary(self):
         """Log the sim time reached and its ratio to wall time (publish_clock mode)."""
@@ -186,6 +177,11 @@ class TcaSimNode(Node):
                 f'({sim / max(wall, 1e-9):.1f}x real time)')
 
     # -- outputs ------------------------------------------------------------------------
+    def _publish_tick(self, now_ns):
+        """Publish /clock and the state of a tick of the own clock."""
+        self._publish_clock(now_ns)
+        self._publish_state(now_ns)
+
     def _republish(self):
         """Publish the last tick again (same values): lockstep before the first command."""
         self._publish_clock(self.core.own_clock.sim_ns)

@@ -77,6 +77,29 @@ class NodeClock:
         self.steps_done += n
 
 
+class Settled:
+    """Whether a condition has held for ``delay`` s of wall time (monotonic) without a break.
+
+    Lockstep starts once the controller has been matched for a while: its reader may
+    match the node's writer tens of ms after the node's writer matched it, and a state
+    sent in between is lost (docs/decisions.md N7).
+    """
+
+    def __init__(self, delay):
+        self.delay = delay  # s
+        self.since = None  # monotonic s since the condition holds
+
+    def __call__(self, holds):
+        """Return True if ``holds`` and it has held for ``delay`` s since it last did not."""
+        if not holds:
+            self.since = None
+            return False
+        now = time.monotonic()
+        if self.since is None:
+            self.since = now
+        return now - self.since >= self.delay
+
+
 class OwnClock:
     """The node's own clock: ticks at real_time_factor, each a published state.
 
@@ -87,19 +110,14 @@ class OwnClock:
     task : node_task.TaskPlayer or node_core.NoTask
         A scored task's bookkeeping (its loads and references, missed commands).
     publish_tick, republish : callables
-        ``publish_tick(now_ns)`` publishes the state of a tick;
+        ``publish_tick(now_ns)`` publishes /clock and the state of a tick;
         ``republish()`` the last one again (lockstep, while no controller answered).
     log : node_episode.Log
-    publish_time : callable or None
-        ``publish_time(now_ns)`` publishes /clock at the time of the tick about to be
-        stepped, before its physics: a reader of /clock takes it while the physics runs,
-        not between the state and its answer (it still comes before the state).
     """
 
-    def __init__(self, episode, task, publish_tick, republish, log, publish_time=None):
+    def __init__(self, episode, task, publish_tick, republish, log):
         self.episode = episode
         self.task = task
-        self._publish_time = publish_time or (lambda now_ns: None)
         self._publish_tick = publish_tick
         self._republish = republish
         self._log = log
@@ -148,7 +166,6 @@ class OwnClock:
                 return
             self.started = True
             self.wall_first_tick = time.monotonic()
-            self._publish_time(self.sim_ns)
             self._tick()
             return
         if self.awaiting:
@@ -192,7 +209,6 @@ class OwnClock:
                 self.task.finish(ep.command_power(self.sim_ns), ep.broken)
                 return
             self.ticks_done += 1
-            self._publish_time(self.sim_ns + round(tick_s * NS))
             ep.advance(physics_steps_per_tick(cfg), self.sim_ns)
             self.sim_ns += round(tick_s * NS)
             self._tick()

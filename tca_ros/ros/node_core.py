@@ -10,8 +10,7 @@ messages and parameters into calls of it and its outputs (plain values) into
 messages; here it is only a few callables:
 
 - ``clock_ns()``: the ROS time (ns) in the node-clock modes;
-- ``publish_time(now_ns)``: publish /clock at the start of a tick of the own clock;
-- ``publish_tick(now_ns)``: publish the state of a tick of the own clock;
+- ``publish_tick(now_ns)``: publish /clock and the state of a tick of the own clock;
 - ``republish()``: publish the last tick again (lockstep, while no controller answered);
 - ``log``: a node_episode.Log.
 
@@ -60,15 +59,14 @@ class NodeCore:
     """The node's episode, inputs and time; see the module doc for the callables."""
 
     def __init__(self, params, cfg, sim, *, owns_time, clock_ns, publish_tick,
-                 republish=None, log=None, rig=None, task=None, publish_time=None):
+                 republish=None, log=None, rig=None, task=None):
         self.owns_time = owns_time
         self._clock_ns = clock_ns
         self.log = log or Log()
         self.task = task or NoTask()
         self.episode = Episode(params, cfg, sim, self.log, rig)
         self.node_clock = NodeClock(self.log)  # the node-clock modes
-        self.own_clock = OwnClock(self.episode, self.task, publish_tick, republish, self.log,
-                                  publish_time)
+        self.own_clock = OwnClock(self.episode, self.task, publish_tick, republish, self.log)
 
     @property
     def cfg(self):
