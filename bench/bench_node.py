@@ -19,7 +19,7 @@
    published), the machine as it is and with ``--busy N`` busy Python processes.
 
 Usage: python bench/bench_node.py [--model rod|cst|love] [--seconds 10]
-       [--only-fastest] [--only-gaps] [--busy 0] [--executors events,single]
+       [--only-fastest] [--only-gaps] [--busy 0] [--executors events,single] [--rounds 3]
 """
 import argparse
 import math
@@ -270,25 +270,36 @@ def bench_round_trip(log_dir, executor, trips=3000):
             proc.stop()
 
 
-def lockstep_table(log_dir, model, seconds, executors):
-    """Print the lockstep figures, one column per executor, measured in this run."""
-    rows = {}
-    for executor in executors:
-        env = dict(os.environ, TCA_EXECUTOR=executor)
-        median, mean = bench_round_trip(log_dir, executor)
-        cpu, cpu_be = [], []
-        rows[executor] = [
-            bench_fastest(log_dir, model, seconds, env=env),
-            bench_fastest(log_dir, model, seconds, reader=True, env=env),
-            bench_fastest(log_dir, model, seconds, lockstep=True, env=env, cpu=cpu),
-            bench_fastest(log_dir, model, seconds, lockstep=True, env=env, cpu=cpu_be,
-                          node_args=BEST_EFFORT_COMMANDS),
-            bench_fastest(log_dir, model, seconds, lockstep=True, pid_sim_time=True, env=env),
-            1e6 * median, 1e6 * mean, 0.01 / mean]
-        rows[executor][4:4] = [1e6 * c for c in cpu] + [1e6 * c for c in cpu_be]
-    load1, load5, _ = os.getloadavg()
+def lockstep_round(log_dir, model, seconds, executor):
+    """Return one round of the lockstep figures of ``executor`` (the table's rows)."""
+    env = dict(os.environ, TCA_EXECUTOR=executor)
+    median, mean = bench_round_trip(log_dir, executor)
+    cpu, cpu_be = [], []
+    row = [bench_fastest(log_dir, model, seconds, env=env),
+           bench_fastest(log_dir, model, seconds, reader=True, env=env),
+           bench_fastest(log_dir, model, seconds, lockstep=True, env=env, cpu=cpu),
+           bench_fastest(log_dir, model, seconds, lockstep=True, env=env, cpu=cpu_be,
+                         node_args=BEST_EFFORT_COMMANDS),
+           bench_fastest(log_dir, model, seconds, lockstep=True, pid_sim_time=True, env=env),
+           1e6 * median, 1e6 * mean, 0.01 / mean]
+    row[4:4] = [1e6 * c for c in cpu] + [1e6 * c for c in cpu_be]
+    return row
+
+
+def lockstep_table(log_dir, model, seconds, executors, rounds=3):
+    """Print the lockstep figures, one column per executor, measured in this run.
+
+    ``rounds`` rounds, the executors interleaved in each (the machine's load drifts);
+    each cell is the median of the rounds and, in brackets, the best of them.
+    """
+    runs = {e: [] for e in executors}
+    load = []
+    for _ in range(rounds):
+        for executor in executors:
+            runs[executor].append(lockstep_round(log_dir, model, seconds, executor))
+            load.append(os.getloadavg()[0])
     print(f'lockstep speed, model {model}, {seconds:g} s per figure, {os.cpu_count()} cores, '
-          f'load average {load1:.1f} / {load5:.1f} (1 / 5 min)')
+          f'{rounds} rounds: median (best); 1-min load average {min(load):.1f}-{max(load):.1f}')
     labels = ['node alone, publish_clock, factor 0 (x)',
               '  with a client reading /clock (x)',
               'lockstep, tca_pid reading joint_states (x), target 30',
@@ -301,9 +312,15 @@ def lockstep_table(log_dir, model, seconds, executors):
               'rclpy round trip, two processes, median (us)',
               '  mean (us)',
               '  lockstep limit at 100 Hz: 10 ms / mean (x)']
-    print(f'{"figure":56s}' + ''.join(f'{e + " executor":>18s}' for e in executors))
+    print(f'{"figure":56s}' + ''.join(f'{e + " executor":>20s}' for e in executors))
     for i, label in enumerate(labels):
-        print(f'{label:56s}' + ''.join(f'{rows[e][i]:18.1f}' for e in executors))
+        best = max if '(x)' in label else min
+        cells = []
+        for e in executors:
+            values = [run[i] for run in runs[e] if not math.isnan(run[i])]
+            cells.append(f'{statistics.median(values):10.1f} ({best(values):6.1f})'
+                         if values else f'{"nan":>20s}')
+        print(f'{label:56s}' + ''.join(f'{c:>20s}' for c in cells))
 
 
 def _sim_seconds(msg):
@@ -344,6 +361,8 @@ def main():
                         help='also measure the gaps with this many busy Python processes')
     parser.add_argument('--executors', default='events,single',
                         help='executors of the lockstep table (TCA_EXECUTOR values)')
+    parser.add_argument('--rounds', type=int, default=3,
+                        help='rounds of the lockstep table (median and best printed)')
     args = parser.parse_args()
     executors = args.executors.split(',')
     if args.only_gaps:
@@ -351,7 +370,7 @@ def main():
         return 0
     if args.only_fastest:
         with tempfile.TemporaryDirectory() as log_dir:
-            lockstep_table(log_dir, args.model, args.seconds / 2, executors)
+            lockstep_table(log_dir, args.model, args.seconds / 2, executors, args.rounds)
         return 0
     with tempfile.TemporaryDirectory() as log_dir:
         cpu, rate = bench_cpu(log_dir, args.model, args.seconds)
@@ -370,7 +389,7 @@ def main():
             print(f'{"power_cmd -> power latency, 95th percentile (ms)":58s} '
                   f'{1e3 * lat[int(0.95 * (len(lat) - 1))]:10.2f}')
             print(f'{"power_cmd -> power latency, max (ms)":58s} {1e3 * lat[-1]:10.2f}')
-        lockstep_table(log_dir, args.model, args.seconds / 2, executors)
+        lockstep_table(log_dir, args.model, args.seconds / 2, executors, args.rounds)
     print_gaps(args.seconds, args.busy)
     return 0
 
