@@ -2,11 +2,12 @@
 
 1. CPU use of the node at 1 kHz physics / 100 Hz publishing, wall clock (% of one core).
 2. Lockstep speed, side by side per executor (TCA_EXECUTOR: events, single): the fastest
-   real-time factor with publish_clock (real_time_factor 0) of the node alone (its own
-   shutdown line), with a client reading /clock, in lockstep with tca_pid at 100 Hz
+   real-time factor with publish_clock (real_time_factor 0) of the node alone, with a
+   client reading /clock, in lockstep with tca_pid at 100 Hz
    reading joint_states only (its time comes from the stamps) and with tca_pid on
    use_sim_time (it reads /clock too), with the CPU time per tick of the node and of
-   tca_pid (all threads; less sensitive to the machine's load than the factor), also with
+   tca_pid (all threads; less sensitive to the machine's load than the factor), each over
+   a window of whole seconds timed by the node's /diagnostics stamps once it ticks, also with
    the node's power_cmd read best effort (a qos_overrides parameter); beside them the
    rclpy round trip between two processes spinning the same executor (a Float64
    ping-pong, one message in flight), the limit of a lockstep loop, which needs one
@@ -18,7 +19,7 @@
    published), the machine as it is and with ``--busy N`` busy Python processes.
 
 Usage: python bench/bench_node.py [--model rod|cst|love] [--seconds 10]
-       [--only-fastest] [--only-gaps] [--busy 0] [--executors events,single]
+       [--only-fastest] [--only-gaps] [--busy 0] [--executors events,single] [--rounds 3]
 """
 import argparse
 import math
@@ -36,6 +37,7 @@ HERE = pathlib.Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent / 'test'))
 os.environ.setdefault('TCA_TEST_DOMAIN', str(random.randint(100, 150)))
 
+from diagnostic_msgs.msg import DiagnosticArray  # noqa: E402
 from rclpy.qos import QoSProfile, ReliabilityPolicy  # noqa: E402
 from rosgraph_msgs.msg import Clock  # noqa: E402
 from sensor_msgs.msg import JointState  # noqa: E402
@@ -146,19 +148,23 @@ def bench_fastest(log_dir, model, seconds, lockstep=False, reader=False, pid_sim
                   env=None, node_args=(), cpu=None):
     """Return the real-time factor reached with publish_clock and factor 0.
 
-    Without ``reader`` the node's shutdown line gives it (sim time over the wall time
-    from its first tick); with ``reader`` a client reads /clock (as a use_sim_time node
-    does) and the factor is measured from it. ``lockstep``: with tca_pid at the node's
-    100 Hz, on use_sim_time if ``pid_sim_time`` (it then reads /clock too).
-    ``node_args``: more ``-p`` rules of the node. ``cpu`` (a list, lockstep without
-    ``reader``): the CPU time (s) per tick of the node and of tca_pid, all their threads,
-    over the last ``seconds - 1`` s (the ticks from the factor) is appended to it.
+    Without ``reader`` the factor is measured over a window of whole seconds once the
+    node ticks (0.5 s after its first tick with a sim time above 0): from the stamps
+    (node time) and receipt times of the node's /diagnostics, which it publishes once a
+    wall second (no message per tick is added); with ``reader`` a client reads /clock
+    (as a use_sim_time node does) and the factor is measured from it. ``lockstep``: with
+    tca_pid at the node's 100 Hz, on use_sim_time if ``pid_sim_time`` (it then reads
+    /clock too). ``node_args``: more ``-p`` rules of the node. ``cpu`` (a list, without
+    ``reader``): the CPU time (s) per tick of the node and of tca_pid (all their threads)
+    over the same window is appended to it.
     """
-    probe = Probe() if reader else None
+    probe = Probe()
     if reader:
         # As rclpy's own /clock reader (TimeSource): best effort, depth 1.
         clocks = probe.record('/clock', Clock, qos=QoSProfile(
             depth=1, reliability=ReliabilityPolicy.BEST_EFFORT))
+    else:
+        diagnostics = probe.record('/diagnostics', DiagnosticArray)
     tag = f'fast{int(lockstep)}{int(reader)}{int(pid_sim_time)}'
     node = _start(log_dir, model, '-p', 'publish_clock:=true', '-p', 'real_time_factor:=0.0',
                   '-p', f'lockstep:={str(lockstep).lower()}', *node_args, name=tag, env=env)
@@ -169,31 +175,41 @@ def bench_fastest(log_dir, model, seconds, lockstep=False, reader=False, pid_sim
             pathlib.Path(log_dir) / f'pid{tag}.log', env=env)
     try:
         if not reader:
-            time.sleep(1.0)  # tca_pid starts (its ticks counted in the factor only)
             procs = [node.proc.pid] + ([pid.proc.pid] if pid is not None else [])
-            cpu0, t0 = [_cpu_seconds(p) for p in procs], time.monotonic()
-            time.sleep(seconds - 1.0)
-            cpu1, t1 = [_cpu_seconds(p) for p in procs], time.monotonic()
-            node.stop()
-            line = re.search(r'\(([0-9.]+)x real time\)', node.log())
-            factor = float(line.group(1)) if line else math.nan
+            probe.spin_until(lambda: diagnostics and _stamp_s(diagnostics[-1][1]) > 0, 60.0)
+            probe.spin_for(0.5)
+            t0, sim0 = _next_message(probe, diagnostics)
+            cpu0 = [_cpu_seconds(p) for p in procs]
+            end = t0 + max(seconds - 1.5, 1.0)
+            while True:
+                t1, sim1 = _next_message(probe, diagnostics)
+                if t1 >= end - 0.1:
+                    break
+            cpu1 = [_cpu_seconds(p) for p in procs]
+            ticks = (sim1 - sim0) / PUBLISH_PERIOD
             if cpu is not None:
-                ticks = factor * (t1 - t0) / PUBLISH_PERIOD
                 cpu.extend((b - a) / ticks if ticks > 0 else math.nan
                            for a, b in zip(cpu0, cpu1))
-            return factor
+            return (sim1 - sim0) / (t1 - t0)
         probe.spin_until(lambda: clocks, 60.0)
         probe.spin_for(1.0)
         sim0, t0 = _sim_seconds(clocks[-1][1]), time.monotonic()
         probe.spin_for(seconds)
         factor = (_sim_seconds(clocks[-1][1]) - sim0) / (time.monotonic() - t0)
     finally:
-        if probe is not None:
-            probe.close()
+        probe.close()
         node.stop()
         if pid is not None:
             pid.stop()
     return factor
+
+
+def _next_message(probe, rows, timeout=5.0):
+    """Spin until one more stamped message is in ``rows``; return (receipt s, stamp s)."""
+    count = len(rows)
+    if not probe.spin_until(lambda: len(rows) > count, timeout):
+        return math.nan, math.nan
+    return rows[-1][0], _stamp_s(rows[-1][1])
 
 
 PING_PONG = """
@@ -254,25 +270,36 @@ def bench_round_trip(log_dir, executor, trips=3000):
             proc.stop()
 
 
-def lockstep_table(log_dir, model, seconds, executors):
-    """Print the lockstep figures, one column per executor, measured in this run."""
-    rows = {}
-    for executor in executors:
-        env = dict(os.environ, TCA_EXECUTOR=executor)
-        median, mean = bench_round_trip(log_dir, executor)
-        cpu, cpu_be = [], []
-        rows[executor] = [
-            bench_fastest(log_dir, model, seconds, env=env),
-            bench_fastest(log_dir, model, seconds, reader=True, env=env),
-            bench_fastest(log_dir, model, seconds, lockstep=True, env=env, cpu=cpu),
-            bench_fastest(log_dir, model, seconds, lockstep=True, env=env, cpu=cpu_be,
-                          node_args=BEST_EFFORT_COMMANDS),
-            bench_fastest(log_dir, model, seconds, lockstep=True, pid_sim_time=True, env=env),
-            1e6 * median, 1e6 * mean, 0.01 / mean]
-        rows[executor][4:4] = [1e6 * c for c in cpu] + [1e6 * c for c in cpu_be]
-    load1, load5, _ = os.getloadavg()
+def lockstep_round(log_dir, model, seconds, executor):
+    """Return one round of the lockstep figures of ``executor`` (the table's rows)."""
+    env = dict(os.environ, TCA_EXECUTOR=executor)
+    median, mean = bench_round_trip(log_dir, executor)
+    cpu, cpu_be = [], []
+    row = [bench_fastest(log_dir, model, seconds, env=env),
+           bench_fastest(log_dir, model, seconds, reader=True, env=env),
+           bench_fastest(log_dir, model, seconds, lockstep=True, env=env, cpu=cpu),
+           bench_fastest(log_dir, model, seconds, lockstep=True, env=env, cpu=cpu_be,
+                         node_args=BEST_EFFORT_COMMANDS),
+           bench_fastest(log_dir, model, seconds, lockstep=True, pid_sim_time=True, env=env),
+           1e6 * median, 1e6 * mean, 0.01 / mean]
+    row[4:4] = [1e6 * c for c in cpu] + [1e6 * c for c in cpu_be]
+    return row
+
+
+def lockstep_table(log_dir, model, seconds, executors, rounds=3):
+    """Print the lockstep figures, one column per executor, measured in this run.
+
+    ``rounds`` rounds, the executors interleaved in each (the machine's load drifts);
+    each cell is the median of the rounds and, in brackets, the best of them.
+    """
+    runs = {e: [] for e in executors}
+    load = []
+    for _ in range(rounds):
+        for executor in executors:
+            runs[executor].append(lockstep_round(log_dir, model, seconds, executor))
+            load.append(os.getloadavg()[0])
     print(f'lockstep speed, model {model}, {seconds:g} s per figure, {os.cpu_count()} cores, '
-          f'load average {load1:.1f} / {load5:.1f} (1 / 5 min)')
+          f'{rounds} rounds: median (best); 1-min load average {min(load):.1f}-{max(load):.1f}')
     labels = ['node alone, publish_clock, factor 0 (x)',
               '  with a client reading /clock (x)',
               'lockstep, tca_pid reading joint_states (x), target 30',
@@ -285,9 +312,15 @@ def lockstep_table(log_dir, model, seconds, executors):
               'rclpy round trip, two processes, median (us)',
               '  mean (us)',
               '  lockstep limit at 100 Hz: 10 ms / mean (x)']
-    print(f'{"figure":56s}' + ''.join(f'{e + " executor":>18s}' for e in executors))
+    print(f'{"figure":56s}' + ''.join(f'{e + " executor":>20s}' for e in executors))
     for i, label in enumerate(labels):
-        print(f'{label:56s}' + ''.join(f'{rows[e][i]:18.1f}' for e in executors))
+        best = max if '(x)' in label else min
+        cells = []
+        for e in executors:
+            values = [run[i] for run in runs[e] if not math.isnan(run[i])]
+            cells.append(f'{statistics.median(values):10.1f} ({best(values):6.1f})'
+                         if values else f'{"nan":>20s}')
+        print(f'{label:56s}' + ''.join(f'{c:>20s}' for c in cells))
 
 
 def _sim_seconds(msg):
@@ -328,6 +361,8 @@ def main():
                         help='also measure the gaps with this many busy Python processes')
     parser.add_argument('--executors', default='events,single',
                         help='executors of the lockstep table (TCA_EXECUTOR values)')
+    parser.add_argument('--rounds', type=int, default=3,
+                        help='rounds of the lockstep table (median and best printed)')
     args = parser.parse_args()
     executors = args.executors.split(',')
     if args.only_gaps:
@@ -335,7 +370,7 @@ def main():
         return 0
     if args.only_fastest:
         with tempfile.TemporaryDirectory() as log_dir:
-            lockstep_table(log_dir, args.model, args.seconds / 2, executors)
+            lockstep_table(log_dir, args.model, args.seconds / 2, executors, args.rounds)
         return 0
     with tempfile.TemporaryDirectory() as log_dir:
         cpu, rate = bench_cpu(log_dir, args.model, args.seconds)
@@ -354,7 +389,7 @@ def main():
             print(f'{"power_cmd -> power latency, 95th percentile (ms)":58s} '
                   f'{1e3 * lat[int(0.95 * (len(lat) - 1))]:10.2f}')
             print(f'{"power_cmd -> power latency, max (ms)":58s} {1e3 * lat[-1]:10.2f}')
-        lockstep_table(log_dir, args.model, args.seconds / 2, executors)
+        lockstep_table(log_dir, args.model, args.seconds / 2, executors, args.rounds)
     print_gaps(args.seconds, args.busy)
     return 0
 

@@ -281,6 +281,22 @@ def test_lockstep_repeats_the_first_state_then_advances_after_the_timeout(monkey
                                     'last one']
 
 
+def test_lockstep_starts_once_the_controller_has_stayed_matched(monkeypatch):
+    wall = [100.0]
+    monkeypatch.setattr(node_clocks, 'time', types.SimpleNamespace(monotonic=lambda: wall[0]))
+    settled = node_clocks.Settled(0.25)
+    assert not settled(False) and not settled(True)  # matched just now
+    wall[0] += 0.2
+    assert not settled(True)
+    wall[0] += 0.1
+    assert settled(True)  # matched for 0.3 s
+    assert not settled(False)  # unmatched: the wait starts again
+    wall[0] += 1.0
+    assert not settled(True)
+    wall[0] += 0.25
+    assert settled(True)
+
+
 # -- the node clock -----------------------------------------------------------------------
 def test_the_physics_catches_up_to_the_clock_and_rebases_on_a_jump_back(rig):
     ep = rig.core.episode

@@ -27,6 +27,7 @@ from std_srvs.srv import Trigger
 
 from tca_ros.model.params_schema import ParameterError, SCHEMA, SPECS
 from tca_ros.params.row_cache import install_disk_cache
+from tca_ros.ros.node_clocks import Settled
 from tca_ros.ros.node_cmdline import check_ros_arguments, init_quietly, log_fatal
 from tca_ros.ros.node_core import NodeCore
 from tca_ros.ros.node_diagnostics import DiagnosticsPublisher
@@ -46,6 +47,10 @@ from tca_ros.ros.node_task import TaskPlayer
 CLOCK_QOS = QoSProfile(depth=1)  # reliable writer; rclpy's clock reader is best effort
 FAST_PERIOD = 1e-3  # s, wall period of the tick timer in publish_clock mode, factor 0
 LOCKSTEP_POLL = 0.01  # s, wall period of that timer in lockstep (wake-ups cost ~0.1 ms)
+# s of wall time a controller stays matched before the first lockstep tick: the node's
+# writer matched tca_pid's reader 55-70 ms before that reader matched the writer, and the
+# first state, sent in between, was lost (repeated only after lockstep_timeout, 1 s)
+MATCH_SETTLE = 0.25
 
 
 class TcaSimNode(Node):
@@ -81,6 +86,7 @@ class TcaSimNode(Node):
         self.add_pre_set_parameters_callback(numbers_as_declared_types)
         self.add_on_set_parameters_callback(self._on_set_parameters)
         self._timer = None
+        self._settled = Settled(MATCH_SETTLE)  # a controller matched for MATCH_SETTLE s
         self._make_timer()
         self._diagnostics = DiagnosticsPublisher(
             self, self.core.muscle_state, lambda: time_msg(self.core.now_ns()), self._wall)
@@ -150,12 +156,15 @@ class TcaSimNode(Node):
             self.core.episode.fail(f'{type(exc).__name__}: {exc}')
 
     def _peers_matched(self):
-        """Return True when a controller reads the state and writes commands."""
+        """Return True when a controller reads the state and writes commands.
+
+        ... and has done so for MATCH_SETTLE s (node_clocks.Settled).
+        """
         readers = self._outputs.joint.get_subscription_count() \
             + self._outputs.displacement.get_subscription_count()
         writers = self._power_sub.get_publisher_count() \
             + self._voltage_sub.get_publisher_count()
-        return readers > 0 and writers > 0
+        return self._settled(readers > 0 and writers > 0)
 
     def log_time_summary(self):
         """Log the sim time reached and its ratio to wall time (publish_clock mode)."""

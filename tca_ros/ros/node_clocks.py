@@ -77,6 +77,29 @@ class NodeClock:
         self.steps_done += n
 
 
+class Settled:
+    """Whether a condition has held for ``delay`` s of wall time (monotonic) without a break.
+
+    Lockstep starts once the controller has been matched for a while: its reader may
+    match the node's writer tens of ms after the node's writer matched it, and a state
+    sent in between is lost (docs/decisions.md N7).
+    """
+
+    def __init__(self, delay):
+        self.delay = delay  # s
+        self.since = None  # monotonic s since the condition holds
+
+    def __call__(self, holds):
+        """Return True if ``holds`` and it has held for ``delay`` s since it last did not."""
+        if not holds:
+            self.since = None
+            return False
+        now = time.monotonic()
+        if self.since is None:
+            self.since = now
+        return now - self.since >= self.delay
+
+
 class OwnClock:
     """The node's own clock: ticks at real_time_factor, each a published state.
 

@@ -132,6 +132,7 @@ class TcaPidNode(Node):
         self._last_stamp_ns = None
         self._waited_for_match = False
         self._power_pub = self.create_publisher(Float64, 'power_cmd', COMMAND_QOS)
+        self._command = Float64()  # refilled per state: publish serialises it at once
         # The setpoint first: when both are pending, the executor serves subscriptions in
         # creation order, so a pending setpoint is taken before a pending state.
         self.create_subscription(Float64, 'displacement_setpoint', self._on_setpoint,
@@ -205,7 +206,8 @@ class TcaPidNode(Node):
         power = self._pid.update(self._setpoint, msg.position[index], dt)
         if not self._waited_for_match:
             self._wait_for_match()
-        self._power_pub.publish(Float64(data=power))
+        self._command.data = power
+        self._power_pub.publish(self._command)
 
     def _wait_for_match(self):
         """Hold the first command until the simulator's subscription is matched.
