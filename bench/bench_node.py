@@ -212,53 +212,14 @@ def _next_message(probe, rows, timeout=5.0):
     return rows[-1][0], _stamp_s(rows[-1][1])
 
 
-PING_PONG = """
-import statistics, sys, time
-import rclpy
-from rclpy.executors import SingleThreadedExecutor
-from rclpy.experimental import EventsExecutor
-from rclpy.qos import QoSProfile
-from std_msgs.msg import Float64
-role, kind, trips = sys.argv[1], sys.argv[2], int(sys.argv[3])
-rclpy.init()
-node = rclpy.create_node('tca_bench_' + role)
-executor = (EventsExecutor if kind == 'events' else SingleThreadedExecutor)(context=node.context)
-out, into = ('bench_pong', 'bench_ping') if role == 'echo' else ('bench_ping', 'bench_pong')
-pub = node.create_publisher(Float64, out, QoSProfile(depth=10))
-state = {'sent': 0.0, 'times': [], 'last': None}
-def on_message(msg):
-    if role == 'echo':
-        state['last'] = time.monotonic()
-        pub.publish(msg)
-    elif msg.data == len(state['times']):
-        state['times'].append(time.perf_counter() - state['sent'])
-        state['sent'] = time.perf_counter()
-        pub.publish(Float64(data=float(len(state['times']))))
-node.create_subscription(Float64, into, on_message, QoSProfile(depth=10))
-executor.add_node(node)
-print(role, 'ready', flush=True)
-deadline = time.monotonic() + 120.0
-while rclpy.ok() and time.monotonic() < deadline and len(state['times']) < trips:
-    executor.spin_once(timeout_sec=0.05)
-    if state['last'] is not None and time.monotonic() - state['last'] > 2.0:
-        break  # the echo's pinger is done
-    if role == 'ping' and time.perf_counter() - state['sent'] > 0.5:  # (re)start
-        if pub.get_subscription_count() and node.count_publishers(into):
-            state['sent'] = time.perf_counter()
-            pub.publish(Float64(data=float(len(state['times']))))
-if role == 'ping':
-    times = state['times'][trips // 10:]  # the first tenth warms up
-    print(f'round trip {statistics.median(times)} {statistics.mean(times)}', flush=True)
-"""
-
-
 def bench_round_trip(log_dir, executor, trips=3000):
     """Return (median, mean) round trip (s) of a Float64 ping-pong between two processes.
 
     Both spin ``executor`` ('events' or 'single'); one message is in flight at a time,
     as in a lockstep loop. The mean sets the loop's rate.
     """
-    procs = [NodeProcess([sys.executable, '-c', PING_PONG, role, executor, str(trips)],
+    procs = [NodeProcess([sys.executable, str(HERE / 'ros_ping_pong.py'), role, executor,
+                          str(trips)],
                          pathlib.Path(log_dir) / f'{role}_{executor}.log')
              for role in ('echo', 'ping')]
     try:
