@@ -218,8 +218,9 @@ def found_text(test):
             f"calibration's objective (data + priors) by {test.fall:.1f} beyond its penalty, "
             f'more than any other effect they stand for by over {DECISIVE_DEVIANCE:g}, and '
             f'predicts the held-out part better than the nominal model held at the '
-            f'description (penalised held-out gain {test.over_described:.1f}; against the '
-            f'shifted nominal model, deviance {test.deviance:+.1f})')
+            f'description (penalised held-out gain {test.over_described:.1f}) and '
+            f'{"worse than" if test.deviance < 0.0 else "as well as"} the shifted nominal '
+            f'model (held-out deviance {test.deviance:+.1f})')
 
 
 def unexplained_findings(cal):
