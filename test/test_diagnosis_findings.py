@@ -6,6 +6,8 @@ from tca_ros.calibration.candidates import absorbed_candidates, build_candidates
     RECALIBRATION, recalibration_spaces
 from tca_ros.calibration.physical_priors import prior_spreads
 from tca_ros.diagnosis import diagnose
+from tca_ros.diagnosis.findings import FindingTest, found_despite_structure
+from tca_ros.diagnosis.joint import JointFit
 from tca_ros.params.files import dump_params, load_params
 from tca_ros.synthetic.descriptions import describe, EXACT_SPREAD, LOOSE
 from tca_ros.synthetic.realistic import realistic_case, truth_path
@@ -15,9 +17,11 @@ QUIET = {'rate': 5.0, 'plant': 'cst', 'temperature': False, 'drift': False,
          'nominal_power': False, 'noisy_power': False, 'jitter': False, 'not_at_rest': False}
 
 
-def _described(tmp_path, seed, hidden, tightnesses):
+def _described(tmp_path, seed, hidden, tightnesses, **conditions):
     """Return (record path, {tightness: description path}, truth) of a quiet realistic case."""
-    record, start = realistic_case(seed, hidden, str(tmp_path), duration=120.0, **QUIET)
+    tmp_path.mkdir(parents=True, exist_ok=True)
+    record, start = realistic_case(seed, hidden, str(tmp_path), duration=120.0,
+                                   **{**QUIET, **conditions})
     truth = load_params(truth_path(str(tmp_path), seed))
     paths = {}
     for tightness in tightnesses:
@@ -69,3 +73,47 @@ def test_a_tight_description_narrows_the_refit_beside_each_candidate():
         ['power_loss']
     tight = recalibration_spaces(measured, measured, prior_spreads(measured))[0]
     assert absorbed_candidates(candidates, tight)[1] == []
+
+
+def test_a_decisive_power_loss_is_found_beside_structure_a_null_leaves(tmp_path):
+    # The power is logged as the command while the thread gets +-3 % more or less: no
+    # model of the logged inputs leaves the residual unstructured, the plant's own
+    # neither. Described as measured, the calibration moves the heat loss, heat capacity
+    # and gain 3-7 spreads; the power loss, calibrated jointly, returns them, lowers the
+    # objective far more than any other effect they stand for, and predicts the
+    # held-out part better than the nominal model held at the description: it is
+    # named, and the verdict says that structure remains beside it.
+    record, described, truth = _described(tmp_path / 'loss', 8, ['power_loss'], ('exact',),
+                                          nominal_power=True)
+    found = diagnose(record, described['exact'], progress=False)
+    assert found.verdict == 'unexplained' and found.effects == ['power_loss'], found.notes
+    assert found.helpful == []
+    fraction = found.extended_values['effects.power_loss_fraction']
+    assert fraction == pytest.approx(truth.effects.power_loss_fraction, abs=0.05)
+    assert found.explanation.startswith('power_loss found: ')
+    assert 'unexplained structure remains beside it' in found.explanation
+    # the same muscle and record conditions without the loss: no finding, nothing named
+    record, described, _ = _described(tmp_path / 'null', 8, [], ('exact',), nominal_power=True)
+    null = diagnose(record, described['exact'], progress=False)
+    assert not null.calibration.findings() and null.effects == [], null.notes
+
+
+def _finding_test(name, fall):
+    """Return a FindingTest of ``name`` that returns its values, with objective fall ``fall``."""
+    fit = JointFit(name=name, values={}, n_params=1, sims=[], criterion=0.0, explained=False,
+                   pinned=[])
+    return FindingTest(fit=fit, fall=fall, deviance=-20.0, returned=True, passes=False,
+                       names=('heat_loss',))
+
+
+def test_a_finding_effect_is_not_found_beside_structure_without_a_decisive_margin():
+    # measured on a 14 % power loss logged at the command: power loss lowered the
+    # objective by 24.4, radiation by 19.5. Within 10 of each other the description
+    # does not tell them apart, and neither is named (no calibration is even run).
+    def calibrate_with(*_):
+        raise AssertionError('no nominal model held at the description is needed')
+    tests = [_finding_test('power_loss', 24.4), _finding_test('radiation', 19.5)]
+    assert found_despite_structure(calibrate_with, [], None, tests) is None
+    # nor below the margin alone
+    assert found_despite_structure(calibrate_with, [], None,
+                                   [_finding_test('power_loss', 9.5)]) is None

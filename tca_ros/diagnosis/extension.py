@@ -10,13 +10,14 @@ part shows only estimation error), the findings' effects tested as their cause
 from dataclasses import dataclass
 
 from tca_ros.calibration.candidates import parameters_at_bounds
-from tca_ros.diagnosis.findings import explain_findings, finding_effects, \
+from tca_ros.diagnosis.findings import explain_findings, finding_effects, found_text, \
     unexplained_findings
 from tca_ros.diagnosis.joint import beats_nominal, family_rivals, joint_extension, \
     joint_notes
 from tca_ros.diagnosis.search import MIN_GAIN_PERCENT, search_effects
 from tca_ros.diagnosis.verdict import channel_stats, decide_verdict, needs_explaining, \
     NOTHING_TO_EXPLAIN, pooled_heldout_rmse
+from tca_ros.diagnosis.verdict_text import found_sentence
 from tca_ros.model.params_schema import SPECS
 
 
@@ -84,9 +85,11 @@ def run_search(nominal, notes):
 
 
 def second_opinions(nominal, calibrate_with, effects, values, extendeds, rounds, notes):
-    """Return (effects, values, extended sims, judgement) after the search's checks.
+    """Return (effects, values, extended sims, judgement, found) after the search's checks.
 
-    ``judgement`` is Nominal.judged's (RMSE, stats, verdict, explanation). A record
+    ``judgement`` is Nominal.judged's (RMSE, stats, verdict, explanation); ``found``
+    True when the effects are named though structure remains (verdict
+    'unexplained': a findings' effect found with structure left, findings.py). A record
     the search leaves unexplained gets the joint stage (joint.py), which also tries
     the effects the calibration's findings name; a record the calibrated nominal
     model leaves adequate while its calibration moved values beyond the description
@@ -95,7 +98,7 @@ def second_opinions(nominal, calibrate_with, effects, values, extendeds, rounds,
     family gets its rivals said (joint.family_rivals).
     """
     judgement = nominal.judged(effects, values, extendeds)
-    cal, joint = nominal.cal, None
+    cal, joint, found = nominal.cal, None, False
     named_by_findings = finding_effects(cal)
     if judgement[2] == 'unexplained' and cal is not None and rounds:
         # the search's nominal refit is narrow: calibrate its first round's best
@@ -118,6 +121,11 @@ def second_opinions(nominal, calibrate_with, effects, values, extendeds, rounds,
         if taken is not None:
             joint = taken.fit
             effects, values, extendeds, judgement = nominal.adopted(joint)
+            if taken.over_described is not None and judgement[2] == 'unexplained':
+                # named on the description's evidence; the verdict says both
+                found = True
+                judgement = judgement[:3] + (found_sentence(effects, judgement[1],
+                                                            found_text(taken)),)
         elif adequate and cal.findings():  # adequate only by leaving the description
             judgement = judgement[:2] + ('unexplained', unexplained_findings(cal))
     rmse, stats, verdict, explanation = judgement
@@ -138,4 +146,4 @@ def second_opinions(nominal, calibrate_with, effects, values, extendeds, rounds,
         if taken is not None:
             effects, values, extendeds, judgement = nominal.adopted(taken)
             rmse, stats, verdict, explanation = judgement
-    return effects, values, extendeds, (rmse, stats, verdict, explanation)
+    return effects, values, extendeds, (rmse, stats, verdict, explanation), found

@@ -25,16 +25,29 @@ and it **explains the finding** when
    its range.
 
 The effect with the largest fall of the objective is named; the others that pass
-are said as rivals. A finding none of its effects explains leaves the record
-unexplained: the nominal model fits it only with values the description rules out
-(docs/diagnosis_method.md, "Findings").
+are said as rivals.
+
+When none passes, one may still be **found with structure left**
+(:func:`found_despite_structure`): conditions 3 and 4 judge the effect against
+the shifted nominal model, which the description rules out. An effect that (1)
+returns the values, (2) lowers the objective by more than DECISIVE_DEVIANCE beyond
+its penalty and by more than DECISIVE_DEVIANCE beyond every other effect the
+findings name, has no parameter at a bound, and (3') predicts the held-out part
+better than the nominal model the description admits (calibrated with the values
+whose findings name it held at the description; penalty (k + m) ln n, m those
+values) is named; the verdict then says that structure remains beside it.
+
+A finding none of its effects explains leaves the record unexplained: the nominal
+model fits it only with values the description rules out (docs/diagnosis_method.md,
+"Findings").
 """
 from dataclasses import dataclass
 import math
 
 from tca_ros.calibration.physical_priors import SHIFT_Z
-from tca_ros.diagnosis.joint import calibratable, joint_calibrations
-from tca_ros.diagnosis.verdict import heldout_deviance
+from tca_ros.diagnosis.joint import calibratable, changed_values, DECISIVE_DEVIANCE, \
+    joint_calibrations, lowers_heldout_rms
+from tca_ros.diagnosis.verdict import heldout_deviance, pooled_heldout_rmse
 
 
 @dataclass
@@ -46,6 +59,10 @@ class FindingTest:
     deviance: float  # held-out deviance gain D over the calibrated nominal (-)
     returned: bool  # the values whose findings name it are back within SHIFT_Z spreads
     passes: bool  # all four conditions of the module docstring
+    names: tuple = ()  # the calibration names whose findings name this effect
+    #: penalised held-out gain over the nominal model the description admits, when
+    #: found with structure left (found_despite_structure), else None
+    over_described: float = None
 
     @property
     def name(self):
@@ -97,7 +114,7 @@ def weigh_finding_effect(fit, cal, problems, nominals):
     passes = bool(names and returned and fall > 0.0 and holds and fit.explained
                   and not fit.pinned)
     return FindingTest(fit=fit, fall=float(fall), deviance=float(deviance),
-                       returned=returned, passes=passes)
+                       returned=returned, passes=passes, names=tuple(names))
 
 
 def explain_findings(calibrate_with, problems, nominals, cal, candidates):
@@ -123,8 +140,13 @@ def explain_findings(calibrate_with, problems, nominals, cal, candidates):
         tried = ', '.join(f'{t.name} (objective fall {t.fall:+.1f}, held-out deviance '
                           f'{t.deviance:+.1f}{"" if t.returned else ", values not returned"})'
                           for t in tests) or 'none could be calibrated'
-        return None, [f'findings {shifted}: the effects they can stand for, calibrated '
-                      f'jointly, do not explain them: {tried}']
+        found = found_despite_structure(calibrate_with, problems, cal, tests)
+        if found is None:
+            return None, [f'findings {shifted}: the effects they can stand for, calibrated '
+                          f'jointly, do not explain them: {tried}']
+        return found, [f'findings {shifted}: no effect they can stand for passes every '
+                       f'condition ({tried}); {found.name} is found with structure left '
+                       f'(docs/diagnosis_method.md, "Findings"): {found_text(found)}']
     best = passing[0]
     notes = [f'findings {shifted}: {best.name}, calibrated jointly with the nominal '
              f'parameters, brings them back within {SHIFT_Z:g} prior spreads, lowers the '
@@ -136,6 +158,69 @@ def explain_findings(calibrate_with, problems, nominals, cal, candidates):
             f'{t.name} (objective fall {t.fall:.1f})' for t in passing[1:])
             + '; these records tell them apart only by that fall')
     return best, notes
+
+
+def found_despite_structure(calibrate_with, problems, cal, tests):
+    """Return the FindingTest found with structure left (module docstring), or None.
+
+    ``tests``: every FindingTest of the findings' effects, none passing. The lead
+    must return its values, not sit at a bound, lower the objective by more than
+    DECISIVE_DEVIANCE beyond its penalty and by more than DECISIVE_DEVIANCE beyond
+    every other effect tested, and predict the held-out part better than the
+    nominal model the description admits (:func:`described_nominal`) by the
+    search's rule with the penalty (k + m) ln n (m the values held). Its
+    ``over_described`` is set to that penalised gain.
+    """
+    ok = sorted((t for t in tests if t.returned and t.names and not t.fit.pinned),
+                key=lambda t: -t.fall)
+    if not ok or not ok[0].fall > DECISIVE_DEVIANCE:
+        return None
+    best = ok[0]
+    rest = [t.fall for t in tests if t is not best]
+    if rest and not best.fall - max(rest) > DECISIVE_DEVIANCE:
+        return None
+    sims = described_nominal(calibrate_with, problems, cal, best.names)
+    if sims is None:
+        return None
+    deviance, n = heldout_deviance(problems, sims, best.fit.sims)
+    gain = deviance - (best.fit.n_params + len(best.names)) * math.log(max(n, 2))
+    reference = pooled_heldout_rmse(problems, sims, problems[0].channels)
+    if not (gain > 0.0 and lowers_heldout_rms(problems, best.fit.sims, reference)):
+        return None
+    best.over_described = float(gain)
+    return best
+
+
+def described_nominal(calibrate_with, problems, cal, held):
+    """Return the record-rate sims of the nominal model the description admits, or None.
+
+    The nominal parameters calibrated on the training part as ``cal`` was, with
+    the calibration names ``held`` kept at the description's values (their prior
+    centres): the best nominal model that leaves no finding on them.
+    ``calibrate_with`` as joint.joint_calibrations.
+    """
+    fit = [n for n in cal.report.estimates if n not in held]
+    start = {n: v for n, v in cal.report.values.items() if n not in held}
+    try:
+        admitted, _, _ = calibrate_with(fit, start, cal)
+        if admitted is None:
+            return None
+        values = changed_values(admitted.params, cal.params)
+        return [p.simulate_full(values) for p in problems]
+    except (ValueError, ArithmeticError):  # the calibration or the full dynamics failed
+        return None
+
+
+def found_text(test):
+    """Return the clause giving a FindingTest's evidence when found with structure left."""
+    return (f'calibrated jointly with the nominal parameters it brings '
+            f'{", ".join(test.names)} back within {SHIFT_Z:g} prior spreads, lowers the '
+            f"calibration's objective (data + priors) by {test.fall:.1f} beyond its penalty, "
+            f'more than any other effect they stand for by over {DECISIVE_DEVIANCE:g}, and '
+            f'predicts the held-out part better than the nominal model held at the '
+            f'description (penalised held-out gain {test.over_described:.1f}) and '
+            f'{"worse than" if test.deviance < 0.0 else "as well as"} the shifted nominal '
+            f'model (held-out deviance {test.deviance:+.1f})')
 
 
 def unexplained_findings(cal):

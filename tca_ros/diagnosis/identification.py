@@ -229,7 +229,7 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
                                        False, validation, fit=fit, max_nfev=JOINT_NFEV,
                                        start_values=start_values, like=like)
     calibrate_with.whole = on_whole_records
-    effects, values, extendeds, judgement = second_opinions(
+    effects, values, extendeds, judgement, found = second_opinions(
         nominal, calibrate_with, effects, values, extendeds, rounds, notes)
     extended_rmse, extended_stats, verdict, explanation = judgement
     if holds_one_load(records) and (verdict != 'unexplained'
@@ -238,8 +238,9 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
         notes.append(ONE_LOAD_NOTE)
     notes.extend(repeat_notes(records, extended_rmse))
     helpful = []
-    if verdict == 'unexplained' and effects:
-        # what helps is shown, but an effect that leaves structure is not a cause
+    if verdict == 'unexplained' and effects and not found:
+        # what helps is shown, but an effect that leaves structure is not a cause (unless
+        # the description's findings name it decisively: found, with structure beside it)
         helpful, effects = list(effects), []
     result = DiagnosisResult(
         record=record, config=config, model=model, params=params,

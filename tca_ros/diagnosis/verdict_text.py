@@ -129,3 +129,17 @@ def confirmed_sentence(effects, heldout_stats, whole_stats, gain):
             f'nominal model (penalised held-out gain {gain:.1f}), and what the inputs still '
             f"predict there is its parameters' estimation error, which the whole-record "
             f'calibration removes ({channels_text(heldout_stats)})')
+
+
+def found_sentence(effects, stats, evidence):
+    """Return the sentence of effects found by the findings while structure remains.
+
+    ``stats``: {channel: ResidualStats} of the extension on the held-out part
+    (structured); ``evidence``: the clause giving why the effects are named
+    (findings.found_text). The verdict stays 'unexplained': the effects are a
+    cause, not all of it.
+    """
+    structured = [st.channel for st in stats.values() if st.structured]
+    return (f'{" + ".join(effects)} found: {evidence}; unexplained structure remains beside '
+            f'it: the held-out residual of {", ".join(structured)} is structured '
+            f'({channels_text(stats)}), so something else acts too')
