@@ -112,13 +112,11 @@ def format_plausibility(cal):
                      'priors share the rest')
     from tca_ros.calibration.experiments import format_experiments, next_experiments
     lines += format_experiments(next_experiments(cal))
-    from tca_ros.calibration.physical_priors import finding_causes
-    tau_z = cal.time_constant_z()
-    tau = cal.derived().get('thermal_time_constant')
+    from tca_ros.calibration.physical_priors import finding_causes_of
     for name, z, effects in cal.findings():
         lines.append(f'finding: {name} moved z = {z:+.1f} prior spreads from the description '
                      '(beyond its stated uncertainty): the muscle differs there, or '
-                     + finding_causes(name, z, effects, tau_z, tau is None or tau.determined)
+                     + finding_causes_of(cal, name, z, effects)
                      + ' stands in (`tca_sim diagnose` tests the effects)')
     bad = [r.name for r in rows if r.implausible]
     if bad:

@@ -188,6 +188,13 @@ def finding_causes(name, z, effects, tau_z=None, tau_determined=True):
     return words
 
 
+def finding_causes_of(cal, name, z, effects):
+    """Return :func:`finding_causes` of a finding of Calibration ``cal`` (its tau read in)."""
+    tau = cal.derived().get('thermal_time_constant')
+    return finding_causes(name, z, effects, cal.time_constant_z(),
+                          tau is None or tau.determined)
+
+
 def degenerate_combinations(estimates, parameters, correlation, names, threshold=0.9):
     """Return [(a, b, kind, spread)]: pairs the records fix only in combination.
 

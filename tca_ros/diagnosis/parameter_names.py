@@ -20,7 +20,7 @@ stand for (issue 25: what calibration absorbs is a finding).
 """
 import math
 
-from tca_ros.calibration.physical_priors import finding_causes
+from tca_ros.calibration.physical_priors import finding_causes_of
 from tca_ros.model.thermal import fiber_mass, heat_capacity, thermal_conductance
 
 #: params-file entry -> (calibration name, unit); the value converts by :func:`nominal_value`
@@ -92,14 +92,10 @@ def plausibility_lines(cal):
         lines.append(f'  {row.name:<28s}{row.value:>11.4g} {row.unit:<6s}(start '
                      f'{row.prior:.4g}, z {row.z:+.1f}{ratio}){flag}')
     lines += _derived_lines(cal)
-    findings = cal.findings()
-    tau_z = cal.time_constant_z() if findings else None
-    tau = cal.derived().get('thermal_time_constant') if findings else None
-    for name, z, effects in findings:
+    for name, z, effects in cal.findings():
         row = next(r for r in rows if r.name == name)
-        why = finding_causes(name, z, effects, tau_z, tau is None or tau.determined) \
-            if effects else \
-            'a cause outside the catalogue'
+        why = (finding_causes_of(cal, name, z, effects) if effects
+               else 'a cause outside the catalogue')
         lines.append(f'finding: {name} moved {z:+.1f} prior spreads from the description '
                      f'({row.prior:.4g} -> {row.value:.4g} {row.unit}): the muscle differs '
                      f'there, or the calibration absorbed an effect: {why}')
@@ -127,7 +123,7 @@ def _derived_lines(cal):
     if r_ratio < 1.0 and abs(math.log(t_ratio)) < 0.5 * abs(math.log(r_ratio)):
         line += (f'; a power loss of {100 * (1.0 - r_ratio):.0f} % (power_loss) would lower '
                  'the rise so and leave the time constant as described')
-    elif r_ratio < 1.0:
+    elif r_ratio < 1.0 and t_ratio < 1.0:
         line += ('; the time constant fell with the rise: more heat is carried away than '
                  'described, not only less power delivered')
     return [line]
