@@ -159,11 +159,6 @@ def cmd_config_new(args, out):
                 loaded_length_at_ambient(params), 'm',
                 f'static length at ambient under the mass ({params.model} model)')
     header = _header(args, spec, result.preset, derived)
-    if sibling is not None:
-        header = header.replace('fiber.untwist_gain = 1, ', '') + (
-            f'\nMaterial from the calibrated muscle {args.material_from}: Gamma(T), '
-            'untwist gain, moduli, c_p, h c_s, actuation lag and their uncertainty '
-            '(docs/describe.md, "Another muscle of the same thread")')
     dump_params(params, args.out, header=header)
     load_params(args.out)  # the file must read back through the same schema
     out.write(f'wrote {args.out}\n')
@@ -190,8 +185,15 @@ def _header(args, spec, preset, derived):
     lines += ['', 'Derived:']
     for name, d in derived.items():
         lines.append(f'  {name} = {_fmt(d.value)} {d.unit}  ({d.note})')
-    lines += ['', 'Schema defaults (not derivable from the above): dynamics.damping, '
-              'effects.*,', 'fiber.untwist_gain = 1, thermal.delivered_power_ratio = 1.']
+    if args.material_from:
+        lines += ['', 'Schema defaults (not derivable from the above): dynamics.damping, '
+                  'effects.*,', 'thermal.delivered_power_ratio = 1.',
+                  f'Material from the calibrated muscle {args.material_from}: Gamma(T), '
+                  'untwist gain, moduli, c_p, h c_s, actuation lag and their uncertainty',
+                  '(docs/describe.md, "Another muscle of the same thread").']
+    else:
+        lines += ['', 'Schema defaults (not derivable from the above): dynamics.damping, '
+                  'effects.*,', 'fiber.untwist_gain = 1, thermal.delivered_power_ratio = 1.']
     return '\n'.join(lines)
 
 
