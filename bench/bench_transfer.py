@@ -29,7 +29,7 @@ from tca_ros.calibration.posterior import calibrated_uncertainty, posterior_of
 from tca_ros.calibration.predictions import full_nrmse
 from tca_ros.calibration.validation import condition_of, repeat_floor
 from tca_ros.model.muscle import describe_muscle, MuscleSpec
-from tca_ros.model.muscle_sibling import sibling_preset, with_sibling_thread
+from tca_ros.model.muscle_sibling import describe_from_sibling
 from tca_ros.params.thread_presets import load_thread_presets
 from tca_ros.records.data import read_record
 
@@ -101,11 +101,7 @@ def sibling_description(name, data, model):
     start = describe_muscle(MUSCLES[sibling], load_thread_presets()).params
     cal = calibrate(data[sibling], start, model=model, check=False)
     measured = calibrated_uncertainty(cal.params, posterior_of(cal))
-    presets = load_thread_presets()
-    thread = MUSCLES[name].thread
-    presets[thread] = sibling_preset(presets[thread], measured)
-    params, _ = with_sibling_thread(describe_muscle(MUSCLES[name], presets).params, measured)
-    return params
+    return describe_from_sibling(MUSCLES[name], load_thread_presets(), measured)[0].params
 
 
 def main(argv=None):

@@ -11,7 +11,7 @@ from tca_ros.calibration.posterior import calibrated_uncertainty, posterior_of
 from tca_ros.calibration.predictions import full_nrmse
 from tca_ros.cli.main import main
 from tca_ros.model.muscle import describe_muscle, MuscleSpec
-from tca_ros.model.muscle_sibling import SIBLING_FLOOR, sibling_preset, with_sibling_thread
+from tca_ros.model.muscle_sibling import describe_from_sibling, SIBLING_FLOOR
 from tca_ros.params.files import dump_params, load_params
 from tca_ros.params.thread_presets import load_thread_presets
 from tca_ros.synthetic.realistic import bench_record
@@ -42,10 +42,8 @@ def test_a_sibling_s_calibrated_thread_predicts_another_muscle_s_other_power_bet
     cal = calibrate(wide, describe_muscle(WIDE, load_thread_presets()).params, model='cst',
                     check=False)
     sibling = calibrated_uncertainty(cal.params, posterior_of(cal))
-    presets = load_thread_presets()
-    presets[THREAD] = sibling_preset(presets[THREAD], sibling)
-    from_sibling, warnings = with_sibling_thread(describe_muscle(NARROW, presets).params,
-                                                 sibling)
+    described, warnings = describe_from_sibling(NARROW, load_thread_presets(), sibling)
+    from_sibling = described.params
     from_preset = describe_muscle(NARROW, load_thread_presets()).params
     assert warnings == []
     errors = {}

@@ -130,27 +130,21 @@ def cmd_config_new(args, out):
     if os.path.exists(args.out) and not args.force:
         raise ParameterError(f'--out = {args.out}: exists (use --force to overwrite)')
     spec = spec_from_args(args)
-    presets, sibling = load_thread_presets(), None
-    if args.material_from:
-        from tca_ros.cli.common import checked_config
-        from tca_ros.model.muscle_sibling import sibling_preset
-        if not os.path.isfile(args.material_from):
-            raise ParameterError(f'--material-from = {args.material_from!r}: no such file '
-                                 '(a params file `tca_sim calibrate` wrote)')
-        sibling = load_params(checked_config(args.material_from, '--material-from'))
-        if spec.thread in presets:
-            presets[spec.thread] = sibling_preset(presets[spec.thread], sibling)
+    warnings = []
     try:
-        result = describe_muscle(spec, presets)
+        if args.material_from:
+            from tca_ros.model.muscle_sibling import describe_from_sibling
+            result, warnings = describe_from_sibling(spec, load_thread_presets(),
+                                                     _sibling(args.material_from))
+        else:
+            result = describe_muscle(spec, load_thread_presets())
     except MuscleError as exc:
         raise ParameterError(exc.renamed(FLAGS)) from None
-    params = result.params
-    if sibling is not None:
+    if warnings:
         from tca_ros.cli.common import warn
-        from tca_ros.model.muscle_sibling import with_sibling_thread
-        params, warnings = with_sibling_thread(params, sibling)
         for line in warnings:
             warn('config new', line)
+    params = result.params
     derived = dict(result.derived)
     if spec.coil != 'conical':
         if spec.loaded_length is None:
@@ -165,6 +159,17 @@ def cmd_config_new(args, out):
     for name, d in derived.items():
         out.write(f'  {name} = {d.value:.6g} {d.unit}\n')
     return 0
+
+
+def _sibling(path):
+    """Return the params of ``--material-from`` (a calibrated params file)."""
+    from tca_ros.cli.common import checked_config
+    from tca_ros.model.params_schema import ParameterError
+    from tca_ros.params.files import load_params
+    if not os.path.isfile(path):
+        raise ParameterError(f'--material-from = {path!r}: no such file '
+                             '(a params file `tca_sim calibrate` wrote)')
+    return load_params(checked_config(path, '--material-from'))
 
 
 def _header(args, spec, preset, derived):

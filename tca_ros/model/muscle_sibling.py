@@ -11,6 +11,7 @@ within what muscles of one make differ by (SIBLING_FLOOR).
 """
 from dataclasses import replace
 
+from tca_ros.model.muscle import describe_muscle
 from tca_ros.model.tca_params import to_flat_dict
 
 #: material entries a calibration fits (as params-file entries) -> the uncertainty
@@ -64,3 +65,18 @@ def with_sibling_thread(params, sibling):
                         f'mm thick, this one {2e3 * params.fiber.radius:.3g} mm: its material '
                         "is taken as this thread's")
     return params.with_values(**values), warnings
+
+
+def describe_from_sibling(spec, presets, sibling):
+    """Return (MuscleDescription of ``spec`` with calibrated ``sibling``'s thread, warnings).
+
+    describe_muscle with ``spec``'s thread preset given the sibling's material
+    (:func:`sibling_preset`), then its process values and uncertainties
+    (:func:`with_sibling_thread`). Raises MuscleError as describe_muscle does.
+    """
+    presets = dict(presets)
+    if spec.thread in presets:
+        presets[spec.thread] = sibling_preset(presets[spec.thread], sibling)
+    result = describe_muscle(spec, presets)
+    params, warnings = with_sibling_thread(result.params, sibling)
+    return replace(result, params=params), warnings
