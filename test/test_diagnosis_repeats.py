@@ -13,19 +13,36 @@ def _run(offset, power=1.0, load=0.098):
                   displacement=stroke, meta={}, source=f'{offset}')
 
 
+def _compare(runs, residual_mm, samples=None):
+    index = [np.arange(r.time.size) if samples is None else samples for r in runs]
+    return repeat_notes(runs, [np.full(r.time.size, residual_mm * 1e-3) for r in runs], index)
+
+
 def test_the_residual_is_compared_with_the_spread_of_repeats():
     # two runs 2 mm apart: each differs from the other (its repeats' mean) by 2 mm RMS
     runs = [_run(0.0), _run(0.002)]
-    below = repeat_notes(runs, {'displacement': 0.0005})
+    below = _compare(runs, 0.5)
     assert len(below) == 1 and 'is below the spread' in below[0] and '(2 mm' in below[0]
-    above = repeat_notes(runs, {'displacement': 0.004})
+    above = _compare(runs, 4.0)
     assert 'is above the spread' in above[0] and 'misses more' in above[0]
+
+
+def test_the_spread_is_taken_on_the_held_out_samples():
+    # runs that agree at rest and differ by 4 mm while heated: a held-out block in the
+    # heating sees a 4 mm spread, so a 3 mm residual there is below it (over the whole
+    # records the spread would be smaller than 3 mm and the note would say "above")
+    runs = [_run(0.0), _run(0.0)]
+    runs[1].displacement[150:] += 0.004
+    whole = _compare(runs, 3.0)
+    assert 'is above the spread' in whole[0]
+    heated = _compare(runs, 3.0, samples=np.arange(200, 260))
+    assert 'is below the spread' in heated[0] and '(4 mm' in heated[0]
 
 
 def test_records_without_repeats_get_no_note():
     # another power is another condition: no repeats, nothing to compare
-    assert repeat_notes([_run(0.0), _run(0.002, power=2.0)], {'displacement': 0.001}) == []
-    assert repeat_notes([_run(0.0)], {'displacement': 0.001}) == []
+    assert _compare([_run(0.0), _run(0.002, power=2.0)], 1.0) == []
+    assert _compare([_run(0.0)], 1.0) == []
 
 
 def test_a_records_air_flow_scales_the_heat_loss_the_diagnosis_simulates():

@@ -146,7 +146,7 @@ def prior_kinds(cal):
         if u is None or name in LINEAR:
             continue
         kind = 'measured' if u <= MEASURED_U else 'guessed' if u >= GUESSED_U else 'estimated'
-        kinds[kind].append(f'{name} ({u:g})')
+        kinds[kind].append(f'{name} ({u:.2g})')
     parts = [f'{k}: {", ".join(v)}' for k, v in kinds.items() if v]
     return ['priors from the description (uncertainty.*; measured ones reveal an effect, '
             'guessed ones absorb it): ' + '; '.join(parts)] if parts else []

@@ -89,26 +89,39 @@ def format_table(rows):
     return '\n'.join(lines)
 
 
-def repeat_floor(records, channel=None, normalised=True):
-    """Return per record the nRMSE (-) of the mean of its repeats; nan without repeats.
+def repeat_means(records, channel=None):
+    """Return per record the mean of its repeats on its time grid, or None without repeats.
 
-    The repeats of a record are the other records at its condition (condition_of),
-    each interpolated onto its time grid (s) and averaged: what a model that knew
-    the condition's mean response exactly would score. Different muscles and
-    their history make repeats differ; no model of one muscle does better.
-    ``channel(record)``: the measured array compared (default the displacement, m);
-    the score is RMSE / its peak, or the RMSE itself (the channel's unit) when not
-    ``normalised``.
+    The repeats of a record are the other records at its condition (condition_of)
+    and rig, each interpolated onto the record's time grid (s) and averaged: the
+    response a model that knew the condition's mean exactly would predict.
+    ``channel(record)``: the measured array (default the displacement, m).
     """
     channel = channel or (lambda r: r.displacement)
     out = []
     for r in records:
         others = [o for o in records if o is not r and condition_of(o) == condition_of(r)
                   and getattr(o, 'meta', {}).get('rig') == getattr(r, 'meta', {}).get('rig')]
-        if not others:
+        out.append(np.mean([np.interp(r.time, o.time, channel(o)) for o in others], axis=0)
+                   if others else None)
+    return out
+
+
+def repeat_floor(records, channel=None, normalised=True):
+    """Return per record the nRMSE (-) of the mean of its repeats; nan without repeats.
+
+    What a model that knew the condition's mean response exactly would score
+    (repeat_means). Different muscles and their history make repeats differ; no
+    model of one muscle does better. ``channel(record)``: the measured array
+    compared (default the displacement, m); the score is RMSE / its peak, or the
+    RMSE itself (the channel's unit) when not ``normalised``.
+    """
+    channel = channel or (lambda r: r.displacement)
+    out = []
+    for r, mean in zip(records, repeat_means(records, channel)):
+        if mean is None:
             out.append(float('nan'))
             continue
-        mean = np.mean([np.interp(r.time, o.time, channel(o)) for o in others], axis=0)
         peak = max(float(np.percentile(channel(r), 99.5)), 1e-9) if normalised else 1.0
         out.append(float(np.sqrt(np.mean((channel(r) - mean) ** 2))) / peak)
     return out

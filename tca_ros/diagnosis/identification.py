@@ -6,8 +6,9 @@
 from dataclasses import dataclass, field
 import math
 import os
-import statistics
 import time as wallclock
+
+import numpy as np
 
 from tca_ros.calibration.candidates import ABSORBED, absorbed_candidates
 from tca_ros.calibration.conditions import held_strength
@@ -236,7 +237,11 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
                                     or not needs_explaining(extended_stats)):
         # no structure left (the verdict may still be a finding's): say what one load hides
         notes.append(ONE_LOAD_NOTE)
-    notes.extend(repeat_notes(records, extended_rmse))
+    if 'displacement' in problem.channels:
+        notes.extend(repeat_notes(
+            [p.record for p in problems],
+            [p.record.displacement - s.displacement for p, s in zip(problems, extendeds)],
+            [p.full_heldout_index for p in problems]))
     helpful = []
     if verdict == 'unexplained' and effects and not found:
         # what helps is shown, but an effect that leaves structure is not a cause (unless
@@ -263,25 +268,35 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
     return result
 
 
-def repeat_notes(records, rmse):
+def repeat_notes(records, residuals, samples):
     """Return a note comparing the held-out displacement RMSE (m) with the repeat spread.
 
     Records of one muscle at one condition (calibration.validation.condition_of)
-    are repeats: the RMS difference of each from the mean of the others (m) is
-    what no model of the inputs can predict. A residual of that size is the
+    are repeats: the difference of each from the mean of the others (m) is what
+    no model of the inputs can predict. Both RMS values are pooled over the same
+    samples, ``samples[i]`` (index array) of the records that have repeats, with
+    ``residuals[i]`` the model's displacement residual (m) of record i: the
+    held-out blocks of a step lie where the runs differ most, so a spread taken
+    over whole records would understate it there. A residual of that size is the
     records' resolution, not a model error to name.
     """
-    from tca_ros.calibration.validation import repeat_floor
-    spread = [s for s in repeat_floor(records, normalised=False) if s == s]
-    if not spread or 'displacement' not in rmse:
+    from tca_ros.calibration.validation import repeat_means
+    model_part, repeat_part = [], []
+    for r, residual, index, mean in zip(records, residuals, samples, repeat_means(records)):
+        if mean is not None:
+            model_part.append(np.asarray(residual)[index])
+            repeat_part.append((r.displacement - mean)[index])
+    if not model_part:
         return []
-    floor, left = float(statistics.median(spread)), float(rmse['displacement'])
+    left = float(np.sqrt(np.mean(np.concatenate(model_part) ** 2)))
+    floor = float(np.sqrt(np.mean(np.concatenate(repeat_part) ** 2)))
     relation = 'below' if left < floor else 'above'
-    return [f'the held-out displacement RMSE ({left * 1e3:.3g} mm) is {relation} the spread '
-            f'between repeated runs at one condition ({floor * 1e3:.3g} mm, the median RMS '
-            f'difference of {len(spread)} records from the mean of their repeats): '
-            + ('a model error smaller than that spread cannot be resolved by these records'
-               if left < floor else 'the model misses more than the runs differ by')]
+    return [f'the held-out displacement RMSE of the {len(model_part)} records with repeats '
+            f'({left * 1e3:.3g} mm) is {relation} the spread between repeated runs on the same '
+            f'samples ({floor * 1e3:.3g} mm, each record against the mean of its repeats at its '
+            'condition): ' + ('a model error smaller than that spread cannot be resolved by '
+                              'these records' if left < floor
+                              else 'the model misses more than the runs differ by')]
 
 
 def _file_values(calibrated, params, config, model):
