@@ -12,7 +12,7 @@ from tca_ros.records.data import clip
 
 # A diagnosis costs CPU time in proportion to its record-rate steps plus a fixed part
 # (cli/main.py, the work limits): at MAX_DIAGNOSE_STEPS about 8-9 min of CPU with the rod model.
-MAX_DIAGNOSE_STEPS = 100_000  # physics steps of one record-rate simulation in diagnose
+MAX_DIAGNOSE_STEPS = 400_000  # record-rate physics steps, all records (2000 s at 200 Hz)
 DIAGNOSIS_PHYSICS_HZ = 200.0  # diagnose's record-rate physics rate floor (fitting.py)
 DIAGNOSIS_FIT_HZ = 10.0  # diagnose's default fit-grid rate (fitting.FIT_RATE_HZ)
 MIN_FIT_SAMPLES = 20  # fit-grid samples a diagnosis needs (data.MIN_SAMPLES)
