@@ -24,6 +24,7 @@ from dataclasses import dataclass
 import math
 
 from tca_ros.calibration.candidates import parameters_at_bounds
+from tca_ros.diagnosis.rival_experiments import rival_experiment_notes
 from tca_ros.diagnosis.search import LAG_EFFECTS, MIN_GAIN_PERCENT
 from tca_ros.diagnosis.verdict import channel_stats, heldout_gain_over, needs_explaining, \
     pooled_heldout_rmse
@@ -274,14 +275,48 @@ def best_joint(fits, problems, nominals, nominal_rmse):
     return (ok[0], ok[1:]) if ok else (None, [])
 
 
+def unresolved_rivals(named, fits, problems, nominal_rmse):
+    """Return the family rivals of ``named`` that only the structure test sets apart.
+
+    Single-effect JointFits of ``named``'s family that pass every rule of
+    best_joint but the structure test, with a penalised held-out gain not
+    decisively below the named fit's (within DECISIVE_DEVIANCE, or above it), best
+    first. They predict the held-out part as well; what separates them is where
+    each leaves the residual against the verdict's floor, a threshold on a
+    statistic the two share almost equally (a second thermal lag and a sensor lag on
+    a record with a thermometer: 1.05 and 0.94 x the floor, gains 540.4 and 539.0),
+    so the report says them beside the named effect.
+    """
+    if named is None or len(named.effects) != 1:
+        return []
+    family = {n for f in FAMILIES if named.effects[0] in f for n in f} - {named.effects[0]}
+    near = [f for f in fits if len(f.effects) == 1 and f.effects[0] in family
+            and not f.explained and not f.pinned and f.criterion > 0.0
+            and f.criterion >= named.criterion - DECISIVE_DEVIANCE
+            and lowers_heldout_rms(problems, f.sims, nominal_rmse)]
+    return sorted(near, key=lambda f: -f.criterion)
+
+
+def unresolved_note(named, near):
+    """Return the report's note on ``unresolved_rivals`` (a list: empty without any)."""
+    if not near:
+        return []
+    return [f'{named.name} is a rival of ' + ', '.join(
+        f'{f.name} (penalised held-out gain {f.criterion:.1f} against {named.criterion:.1f})'
+        for f in near) + ': calibrated jointly, each predicts the held-out part as well, '
+        'and only the verdict\'s structure test, which the rivals fail, sets them apart']
+
+
 def joint_extension(calibrate_with, problems, nominals, cal, candidates, rounds, nominal_rmse,
                     extra=()):
-    """Return (the JointFit taken or None, its rivals): singles first, then pairs.
+    """Return (the JointFit taken or None, its rivals, its unresolved rivals).
 
-    The search's first-round candidates (joint_order, with the ``extra`` effect
-    names) are calibrated jointly one at a time; when none is taken, the pairs of
-    pair_order; best_joint decides each time. Arguments as joint_calibrations and
-    best_joint; ``rounds`` are the search's SearchRounds.
+    Singles first, then pairs: the search's first-round candidates (joint_order,
+    with the ``extra`` effect names) are calibrated jointly one at a time; when
+    none is taken, the pairs of pair_order; best_joint decides each time, and
+    unresolved_rivals lists the family members it set apart only by the
+    structure test. Arguments as joint_calibrations and best_joint; ``rounds``
+    are the search's SearchRounds.
     """
     fits = joint_calibrations(calibrate_with, problems, nominals, cal, candidates,
                               [(c,) for c in joint_order(rounds, candidates, extra=extra)])
@@ -290,7 +325,7 @@ def joint_extension(calibrate_with, problems, nominals, cal, candidates, rounds,
         fits = joint_calibrations(calibrate_with, problems, nominals, cal, candidates,
                                   pair_order(rounds, candidates, fits))
         joint, rivals = best_joint(fits, problems, nominals, nominal_rmse)
-    return joint, rivals
+    return joint, rivals, unresolved_rivals(joint, fits, problems, nominal_rmse)
 
 
 def family_rivals(calibrate_with, problems, nominals, cal, candidates, found, nominal_rmse):
@@ -320,8 +355,9 @@ def family_rivals(calibrate_with, problems, nominals, cal, candidates, found, no
                       and f.criterion > 0.0
                       and lowers_heldout_rms(problems, f.sims, nominal_rmse)),
                      key=lambda f: -f.criterion)
+    near = unresolved_rivals(own, fits, problems, nominal_rmse)
     if not passing:
-        return None, []
+        return None, unresolved_note(own, near) + rival_experiment_notes(own, near)
     gains = ', '.join(f'{f.name} (penalised held-out gain {f.criterion:.1f})'
                       for f in passing)
     if own is not None and passing[0].criterion > own.criterion + DECISIVE_DEVIANCE:
@@ -331,12 +367,20 @@ def family_rivals(calibrate_with, problems, nominals, cal, candidates, found, no
                       f'{found}: {best.name} is named, its gain larger by more than '
                       f'{DECISIVE_DEVIANCE:g} (docs/diagnosis_method.md, "Family rivals")']
     against = f' against {own.criterion:.1f} for {found}' if own is not None else ''
-    return None, [f'{found} is named by the search; also explained, calibrated jointly: '
-                  f'{gains}{against}: these records tell them apart only by that gain']
+    notes = [f'{found} is named by the search; also explained, calibrated jointly: '
+             f'{gains}{against}: these records tell them apart only by that gain']
+    if own is None:
+        return None, notes
+    return None, notes + unresolved_note(own, near) + rival_experiment_notes(own, passing + near)
 
 
-def joint_notes(joint, rivals, searched):
-    """Return the report's notes on a JointFit taken over the search's ``searched`` effects."""
+def joint_notes(joint, rivals, searched, near=()):
+    """Return the report's notes on a JointFit taken over the search's ``searched`` effects.
+
+    ``rivals``: the others that explain too (best_joint); ``near``: those only the
+    structure test set apart (unresolved_rivals). Each is said with the experiment
+    that would separate it from the one taken (rival_experiments.py).
+    """
     left = f' with {" + ".join(searched)}' if searched else ''
     pair = len(joint.effects) > 1
     notes = [f'the search left structure{left}; {joint.name}, calibrated jointly with all '
@@ -348,4 +392,4 @@ def joint_notes(joint, rivals, searched):
             f'{f.name} (penalised held-out gain {f.criterion:.1f} against '
             f'{joint.criterion:.1f})' for f in rivals)
             + '; these records tell them apart only by that gain')
-    return notes
+    return notes + unresolved_note(joint, near) + rival_experiment_notes(joint, [*rivals, *near])
