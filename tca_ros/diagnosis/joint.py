@@ -24,8 +24,9 @@ from dataclasses import dataclass
 import math
 
 from tca_ros.calibration.candidates import parameters_at_bounds
-from tca_ros.diagnosis.rival_experiments import rival_experiment_notes
-from tca_ros.diagnosis.search import LAG_EFFECTS, MIN_GAIN_PERCENT
+from tca_ros.diagnosis.rivals import DECISIVE_DEVIANCE, FAMILIES, rival_experiment_notes, \
+    rivals_of, unresolved_note, unresolved_rivals
+from tca_ros.diagnosis.search import MIN_GAIN_PERCENT
 from tca_ros.diagnosis.verdict import channel_stats, heldout_gain_over, needs_explaining, \
     pooled_heldout_rmse
 from tca_ros.model.tca_params import to_flat_dict
@@ -34,15 +35,7 @@ JOINT_TOP = 3  # candidates of the search's first round calibrated jointly, best
 PAIR_LEADS = 2  # single joint fits that help without explaining, each tried with partners
 PAIR_PARTNERS = 2  # partners of each, from the search round that added it (or the first)
 MAX_PAIRS = 4  # pairs calibrated jointly at most
-#: held-out deviance by which a family rival's joint fit must beat the named effect's own
-#: joint fit to replace it (Kass & Raftery's "very strong" evidence, 2 ln B > 10)
-DECISIVE_DEVIANCE = 10.0
 JOINT_NFEV = 10  # least-squares iterations of each pass of a joint calibration
-#: effects one record may not tell apart, tried together: the lags (each delays the
-#: response), the play operators (on the temperature or on the elongation: the same band
-#: of stroke under a constant load) and the heat-loss shapes (each bends the steady rise)
-FAMILIES = (LAG_EFFECTS, ('hysteresis', 'friction'),
-            ('ambient_offset', 'nonlinear_convection', 'radiation'))
 
 
 @dataclass
@@ -275,38 +268,6 @@ def best_joint(fits, problems, nominals, nominal_rmse):
     return (ok[0], ok[1:]) if ok else (None, [])
 
 
-def unresolved_rivals(named, fits, problems, nominal_rmse):
-    """Return the family rivals of ``named`` that only the structure test sets apart.
-
-    Single-effect JointFits of ``named``'s family that pass every rule of
-    best_joint but the structure test, with a penalised held-out gain not
-    decisively below the named fit's (within DECISIVE_DEVIANCE, or above it), best
-    first. They predict the held-out part as well; what separates them is where
-    each leaves the residual against the verdict's floor, a threshold on a
-    statistic the two share almost equally (a second thermal lag and a sensor lag on
-    a record with a thermometer: 1.05 and 0.94 x the floor, gains 540.4 and 539.0),
-    so the report says them beside the named effect.
-    """
-    if named is None or len(named.effects) != 1:
-        return []
-    family = {n for f in FAMILIES if named.effects[0] in f for n in f} - {named.effects[0]}
-    near = [f for f in fits if len(f.effects) == 1 and f.effects[0] in family
-            and not f.explained and not f.pinned and f.criterion > 0.0
-            and f.criterion >= named.criterion - DECISIVE_DEVIANCE
-            and lowers_heldout_rms(problems, f.sims, nominal_rmse)]
-    return sorted(near, key=lambda f: -f.criterion)
-
-
-def unresolved_note(named, near):
-    """Return the report's note on ``unresolved_rivals`` (a list: empty without any)."""
-    if not near:
-        return []
-    return [f'{named.name} is a rival of ' + ', '.join(
-        f'{f.name} (penalised held-out gain {f.criterion:.1f} against {named.criterion:.1f})'
-        for f in near) + ': calibrated jointly, each predicts the held-out part as well, '
-        'and only the verdict\'s structure test, which the rivals fail, sets them apart']
-
-
 def joint_extension(calibrate_with, problems, nominals, cal, candidates, rounds, nominal_rmse,
                     extra=()):
     """Return (the JointFit taken or None, its rivals, its unresolved rivals).
@@ -325,7 +286,8 @@ def joint_extension(calibrate_with, problems, nominals, cal, candidates, rounds,
         fits = joint_calibrations(calibrate_with, problems, nominals, cal, candidates,
                                   pair_order(rounds, candidates, fits))
         joint, rivals = best_joint(fits, problems, nominals, nominal_rmse)
-    return joint, rivals, unresolved_rivals(joint, fits, problems, nominal_rmse)
+    return joint, rivals, unresolved_rivals(
+        joint, fits, lambda f: lowers_heldout_rms(problems, f.sims, nominal_rmse))
 
 
 def family_rivals(calibrate_with, problems, nominals, cal, candidates, found, nominal_rmse):
@@ -344,8 +306,8 @@ def family_rivals(calibrate_with, problems, nominals, cal, candidates, found, no
     for (a 0.22 s sensor lag at 2 Hz was named dead time, gains 766 against 266).
     """
     by_name = {n: c for n, c in calibratable(candidates).items() if c.starts}
-    family = next((f for f in FAMILIES if found in f), ())
-    rivals = [by_name[n] for n in family if n != found and n in by_name]
+    family = rivals_of(found)
+    rivals = [by_name[n] for n in by_name if n in family]
     if not rivals or found not in by_name:
         return None, []
     fits = joint_calibrations(calibrate_with, problems, nominals, cal, candidates,
@@ -355,7 +317,8 @@ def family_rivals(calibrate_with, problems, nominals, cal, candidates, found, no
                       and f.criterion > 0.0
                       and lowers_heldout_rms(problems, f.sims, nominal_rmse)),
                      key=lambda f: -f.criterion)
-    near = unresolved_rivals(own, fits, problems, nominal_rmse)
+    near = unresolved_rivals(own, fits,
+                             lambda f: lowers_heldout_rms(problems, f.sims, nominal_rmse))
     if not passing:
         return None, unresolved_note(own, near) + rival_experiment_notes(own, near)
     gains = ', '.join(f'{f.name} (penalised held-out gain {f.criterion:.1f})'
@@ -379,7 +342,7 @@ def joint_notes(joint, rivals, searched, near=()):
 
     ``rivals``: the others that explain too (best_joint); ``near``: those only the
     structure test set apart (unresolved_rivals). Each is said with the experiment
-    that would separate it from the one taken (rival_experiments.py).
+    that would separate it from the one taken (rivals.py).
     """
     left = f' with {" + ".join(searched)}' if searched else ''
     pair = len(joint.effects) > 1
