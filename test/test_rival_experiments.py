@@ -7,7 +7,7 @@ import pytest
 from tca_ros.calibration.experiments import SEPARATES, separating_experiment
 from tca_ros.calibration.predictions import predictor
 from tca_ros.diagnosis.joint import JointFit
-from tca_ros.diagnosis.rivals import rival_experiment_notes
+from tca_ros.diagnosis.rivals import DECISIVE_DEVIANCE, rival_experiment_notes
 from tca_ros.synthetic.realistic import realistic_set
 
 NOISE_M = 20e-6  # m, the residual RMS of a good fit of a bench record
@@ -57,6 +57,10 @@ def test_a_load_step_separates_a_sensor_lag_from_a_second_thermal_lag(lagged):
     assert len(notes) == 1
     assert notes[0].startswith('sensor_lag and second_thermal_lag are rivals')
     assert 'the load raised to 2x over their middle third separates them' in notes[0]
+    # a rival the records tell apart (its gain decisively below) gets no experiment
+    worse = _fit('second_thermal_lag', rivals[1], lagged)
+    worse.criterion = 100.0 - DECISIVE_DEVIANCE - 1.0
+    assert rival_experiment_notes(_fit('sensor_lag', rivals[0], lagged), [worse]) == []
 
 
 def test_a_dead_time_is_told_from_a_sensor_lag_and_moves_the_temperature_too(lagged):

@@ -87,22 +87,33 @@ def rival_experiment(named, rival):
     return separating_experiment(cal, values, (named.name, rival.name), 'effects')
 
 
-def rival_experiment_notes(named, rivals):
-    """Return the report's notes: per rival, the experiment that separates it from ``named``.
+def _shown(value, unit):
+    """Return ``value`` (m or K) as the report writes it: displacements in mm."""
+    return f'{value * 1e3:.3g} mm' if unit == 'm' else f'{value:.3g} {unit}'
 
-    Each note names both effects, the experiment and how far apart the two
-    jointly calibrated muscles are there and on the records (RMS, against the
-    sensor noise; 'separates' at experiments.SEPARATES noise units).
+
+def rival_experiment_notes(named, rivals):
+    """Return the report's notes: per equal rival, the experiment that separates it.
+
+    Only the rivals the records do not tell apart from ``named`` get one: a
+    penalised held-out gain within DECISIVE_DEVIANCE of the named fit's, or above
+    it (one decisively below is told apart by these records). Each note names both
+    effects, the experiment, and how far apart the two jointly calibrated muscles are
+    there and on the records (RMS, against the sensor noise; it separates them at
+    experiments.SEPARATES noise units).
     """
     notes = []
     for rival in rivals:
+        if rival.criterion < named.criterion - DECISIVE_DEVIANCE:
+            continue
         e = rival_experiment(named, rival)
         if e is None:
             continue
         told = ('separates them' if e.separates else
                 'is the best tried and would not separate them either')
-        notes.append(f'{named.name} and {rival.name} are rivals: calibrated jointly each fits '
-                     f'these records (the two differ by {e.on_records:.3g} m RMS on them); '
-                     f'{e.experiment} {told}: simulated with each, they differ by '
-                     f'{e.difference:.3g} {e.unit} RMS there (noise {e.noise:.3g} {e.unit})')
+        notes.append(f'{named.name} and {rival.name} are rivals: calibrated jointly, each fits '
+                     f'these records (the two differ by {_shown(e.on_records, "m")} RMS on '
+                     f'them); {e.experiment} {told}: simulated with each, they differ by '
+                     f'{_shown(e.difference, e.unit)} RMS there (noise '
+                     f'{_shown(e.noise, e.unit)})')
     return notes
