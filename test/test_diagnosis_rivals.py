@@ -71,6 +71,28 @@ def test_a_structured_rival_as_good_on_the_held_out_part_is_said(monkeypatch):
     assert notes[1:] == ['experiment sensor_lag / second_thermal_lag']
 
 
+def test_lags_and_play_operators_are_each_others_rivals(monkeypatch):
+    # at a reversal of the heating a lag rounds the stroke and a play operator holds it:
+    # a named lag's rivals include friction and hysteresis (seed 9123: friction named a
+    # second thermal lag, never calibrated jointly), and a named play operator's the lags
+    from tca_ros.diagnosis.rivals import rivals_of
+    assert rivals_of('sensor_lag') == {'second_thermal_lag', 'dead_time', 'hysteresis',
+                                       'friction'}
+    assert rivals_of('friction') == {'hysteresis', 'second_thermal_lag', 'sensor_lag',
+                                     'dead_time'}
+    assert rivals_of('radiation') == {'ambient_offset', 'nonlinear_convection'}
+    play = [_candidate('friction', 'effects.friction_force'),
+            _candidate('hysteresis', 'effects.hysteresis_width')]
+    asked = []
+
+    def fake_calibrations(calibrate_with, problems, nominals, cal, candidates, groups):
+        asked.extend(c.name for group in groups for c in group)
+        return []
+    monkeypatch.setattr(joint, 'joint_calibrations', fake_calibrations)
+    family_rivals(None, [], [], None, CANDIDATES + play, 'second_thermal_lag', {})
+    assert asked == ['second_thermal_lag', 'sensor_lag', 'dead_time', 'friction', 'hysteresis']
+
+
 def test_an_effect_without_a_family_calibrates_nothing(monkeypatch):
     notes, asked = _notes(monkeypatch, [], found='creep')
     assert notes == [] and asked == []
