@@ -92,19 +92,23 @@ def _shown(value, unit):
     return f'{value * 1e3:.3g} mm' if unit == 'm' else f'{value:.3g} {unit}'
 
 
-def rival_experiment_notes(named, rivals):
+def rival_experiment_notes(named, rivals, equal=None):
     """Return the report's notes: per equal rival, the experiment that separates it.
 
-    Only the rivals the records do not tell apart from ``named`` get one: a
-    penalised held-out gain within DECISIVE_DEVIANCE of the named fit's, or above
-    it (one decisively below is told apart by these records). Each note names both
+    Only the rivals the records do not tell apart from ``named`` get one; by
+    default those with a penalised held-out gain within DECISIVE_DEVIANCE of the
+    named fit's, or above it (one decisively below is told apart by these
+    records); ``equal(rival)`` decides instead when given. Each note names both
     effects, the experiment, and how far apart the two jointly calibrated muscles are
     there and on the records (RMS, against the sensor noise; it separates them at
     experiments.SEPARATES noise units).
     """
+    if equal is None:
+        def equal(rival):
+            return rival.criterion >= named.criterion - DECISIVE_DEVIANCE
     notes = []
     for rival in rivals:
-        if rival.criterion < named.criterion - DECISIVE_DEVIANCE:
+        if not equal(rival):
             continue
         e = rival_experiment(named, rival)
         if e is None:
