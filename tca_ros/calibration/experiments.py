@@ -4,7 +4,7 @@ When the records fix two calibrated values only in combination (their product or
 ratio, Calibration.combinations), two rival muscles along that combination fit the
 records alike; so do two catalogue effects that the diagnosis finds explaining the
 records equally (a sensor lag and a second thermal lag delay the stroke behind the
-measured temperature alike, tca_ros.diagnosis.rival_experiments). Each candidate
+measured temperature alike, tca_ros.diagnosis.rivals). Each candidate
 experiment below is simulated with both rivals (the quasi-static reduction of
 calibration, predictions.py); the one whose predictions differ most against its
 sensor's noise is the one to run (:func:`separating_experiment`).
@@ -79,7 +79,7 @@ def _load_stepped(record, factor=LOAD_STEP_FACTOR):
 
     At a load step the coil's elastic response is immediate (behind the damping
     only): what lags the actuating temperature does not delay it, what lags the
-    reading or holds the end (friction) does.
+    reading does, and friction holds back a band of it.
     """
     t = record.time
     middle = (t >= t[0] + (t[-1] - t[0]) / 3.0) & (t < t[0] + 2.0 * (t[-1] - t[0]) / 3.0)
