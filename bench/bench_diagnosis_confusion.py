@@ -120,12 +120,14 @@ def rival_noted(row):
     """Return True when a wrong single names one effect and the notes give the truth as its rival.
 
     The joint stage and the findings say which other effects explain the records as
-    well ('also explained ...', 'also explaining ...'): records that cannot tell
-    them apart (a sensor lag from a second thermal lag without a fast channel).
+    well ('also explained ...', 'also explaining ...', '... are rivals', '... is a rival
+    of ...'): records that cannot tell them apart (a sensor lag from a second thermal
+    lag on one load, with or without a thermometer).
     """
     if row['family'] != 'single' or len(row['found']) != 1:
         return False
-    return any(('also explain' in n) and row['hidden'][0] in n for n in row['notes'])
+    return any(('also explain' in n or ' rival' in n) and row['hidden'][0] in n
+               for n in row['notes'])
 
 
 def named(row):

@@ -6,7 +6,7 @@ The tables are read from the catalogue of effects (tca_ros.model.effects.CATALOG
 the parameter schema (tca_ros.model.params_schema.SCHEMA: units, defaults, ranges),
 the diagnosis's search spaces (tca_ros.calibration.candidates), the synthetic
 generator's ranges (tca_ros.synthetic.generator) and the joint stage's families
-(tca_ros.diagnosis.joint.FAMILIES). The example blocks (EXAMPLES) are what
+(tca_ros.diagnosis.rivals: FAMILIES, rivals_of). The example blocks (EXAMPLES) are what
 `tca_sim diagnose` prints on the shipped example record; they take about a minute, so
 only ``--examples`` runs them, and their run time line is compared without its
 seconds. test/test_docs_tables.py fails when a doc's block differs from what this
@@ -28,7 +28,7 @@ import tempfile
 
 from tca_ros.calibration import candidates as cand
 from tca_ros.cli.main import main as tca_sim
-from tca_ros.diagnosis.joint import FAMILIES
+from tca_ros.diagnosis.rivals import FAMILIES, rivals_of
 from tca_ros.model.effects import CATALOGUE
 from tca_ros.model.params_schema import SPECS
 from tca_ros.params.files import load_params
@@ -98,7 +98,9 @@ def cell(text):
 def _family(name):
     for family in FAMILIES:
         if name in family:
-            return ', '.join(f for f in family if f != name)
+            own = [f for f in family if f != name]
+            also = sorted(rivals_of(name) - set(own))  # rivals.HELD_BEHIND
+            return ', '.join(own) + (f'; also {", ".join(also)}' if also else '')
     return '-'
 
 

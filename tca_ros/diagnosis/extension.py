@@ -103,11 +103,11 @@ def second_opinions(nominal, calibrate_with, effects, values, extendeds, rounds,
     if judgement[2] == 'unexplained' and cal is not None and rounds:
         # the search's nominal refit is narrow: calibrate its first round's best
         # candidates together with the nominal parameters (joint.py)
-        joint, rivals = joint_extension(calibrate_with, nominal.problems, nominal.sims, cal,
-                                        nominal.candidates, rounds, nominal.rmse,
-                                        extra=named_by_findings)
+        joint, rivals, near = joint_extension(calibrate_with, nominal.problems, nominal.sims,
+                                              cal, nominal.candidates, rounds, nominal.rmse,
+                                              extra=named_by_findings)
         if joint is not None:
-            notes.extend(joint_notes(joint, rivals, effects))
+            notes.extend(joint_notes(joint, rivals, effects, near))
             effects, values, extendeds, judgement = nominal.adopted(joint)
     if joint is None and judgement[2] != 'explained' and named_by_findings:
         # the calibration moved stated values: their effects tested as the cause, whether

@@ -47,6 +47,7 @@ import math
 from tca_ros.calibration.physical_priors import SHIFT_Z
 from tca_ros.diagnosis.joint import calibratable, changed_values, DECISIVE_DEVIANCE, \
     joint_calibrations, lowers_heldout_rms
+from tca_ros.diagnosis.rivals import rival_experiment_notes
 from tca_ros.diagnosis.verdict import heldout_deviance, pooled_heldout_rmse
 
 
@@ -157,6 +158,9 @@ def explain_findings(calibrate_with, problems, nominals, cal, candidates):
         notes.append('also explaining the findings: ' + ', '.join(
             f'{t.name} (objective fall {t.fall:.1f})' for t in passing[1:])
             + '; these records tell them apart only by that fall')
+        # those within DECISIVE_DEVIANCE of its fall: the experiment that separates them
+        close = [t.fit for t in passing[1:] if t.fall >= best.fall - DECISIVE_DEVIANCE]
+        notes += rival_experiment_notes(best.fit, close, equal=lambda fit: True)
     return best, notes
 
 

@@ -24,7 +24,9 @@ from dataclasses import dataclass
 import math
 
 from tca_ros.calibration.candidates import parameters_at_bounds
-from tca_ros.diagnosis.search import LAG_EFFECTS, MIN_GAIN_PERCENT
+from tca_ros.diagnosis.rivals import DECISIVE_DEVIANCE, FAMILIES, rival_experiment_notes, \
+    rivals_of, unresolved_note, unresolved_rivals
+from tca_ros.diagnosis.search import MIN_GAIN_PERCENT
 from tca_ros.diagnosis.verdict import channel_stats, heldout_gain_over, needs_explaining, \
     pooled_heldout_rmse
 from tca_ros.model.tca_params import to_flat_dict
@@ -33,15 +35,7 @@ JOINT_TOP = 3  # candidates of the search's first round calibrated jointly, best
 PAIR_LEADS = 2  # single joint fits that help without explaining, each tried with partners
 PAIR_PARTNERS = 2  # partners of each, from the search round that added it (or the first)
 MAX_PAIRS = 4  # pairs calibrated jointly at most
-#: held-out deviance by which a family rival's joint fit must beat the named effect's own
-#: joint fit to replace it (Kass & Raftery's "very strong" evidence, 2 ln B > 10)
-DECISIVE_DEVIANCE = 10.0
 JOINT_NFEV = 10  # least-squares iterations of each pass of a joint calibration
-#: effects one record may not tell apart, tried together: the lags (each delays the
-#: response), the play operators (on the temperature or on the elongation: the same band
-#: of stroke under a constant load) and the heat-loss shapes (each bends the steady rise)
-FAMILIES = (LAG_EFFECTS, ('hysteresis', 'friction'),
-            ('ambient_offset', 'nonlinear_convection', 'radiation'))
 
 
 @dataclass
@@ -276,12 +270,14 @@ def best_joint(fits, problems, nominals, nominal_rmse):
 
 def joint_extension(calibrate_with, problems, nominals, cal, candidates, rounds, nominal_rmse,
                     extra=()):
-    """Return (the JointFit taken or None, its rivals): singles first, then pairs.
+    """Return (the JointFit taken or None, its rivals, its unresolved rivals).
 
-    The search's first-round candidates (joint_order, with the ``extra`` effect
-    names) are calibrated jointly one at a time; when none is taken, the pairs of
-    pair_order; best_joint decides each time. Arguments as joint_calibrations and
-    best_joint; ``rounds`` are the search's SearchRounds.
+    Singles first, then pairs: the search's first-round candidates (joint_order,
+    with the ``extra`` effect names) are calibrated jointly one at a time; when
+    none is taken, the pairs of pair_order; best_joint decides each time, and
+    unresolved_rivals lists the family members it set apart only by the
+    structure test. Arguments as joint_calibrations and best_joint; ``rounds``
+    are the search's SearchRounds.
     """
     fits = joint_calibrations(calibrate_with, problems, nominals, cal, candidates,
                               [(c,) for c in joint_order(rounds, candidates, extra=extra)])
@@ -290,7 +286,8 @@ def joint_extension(calibrate_with, problems, nominals, cal, candidates, rounds,
         fits = joint_calibrations(calibrate_with, problems, nominals, cal, candidates,
                                   pair_order(rounds, candidates, fits))
         joint, rivals = best_joint(fits, problems, nominals, nominal_rmse)
-    return joint, rivals
+    return joint, rivals, unresolved_rivals(
+        joint, fits, lambda f: lowers_heldout_rms(problems, f.sims, nominal_rmse))
 
 
 def family_rivals(calibrate_with, problems, nominals, cal, candidates, found, nominal_rmse):
@@ -309,8 +306,8 @@ def family_rivals(calibrate_with, problems, nominals, cal, candidates, found, no
     for (a 0.22 s sensor lag at 2 Hz was named dead time, gains 766 against 266).
     """
     by_name = {n: c for n, c in calibratable(candidates).items() if c.starts}
-    family = next((f for f in FAMILIES if found in f), ())
-    rivals = [by_name[n] for n in family if n != found and n in by_name]
+    family = rivals_of(found)
+    rivals = [by_name[n] for n in by_name if n in family]
     if not rivals or found not in by_name:
         return None, []
     fits = joint_calibrations(calibrate_with, problems, nominals, cal, candidates,
@@ -320,8 +317,10 @@ def family_rivals(calibrate_with, problems, nominals, cal, candidates, found, no
                       and f.criterion > 0.0
                       and lowers_heldout_rms(problems, f.sims, nominal_rmse)),
                      key=lambda f: -f.criterion)
+    near = unresolved_rivals(own, fits,
+                             lambda f: lowers_heldout_rms(problems, f.sims, nominal_rmse))
     if not passing:
-        return None, []
+        return None, unresolved_note(own, near) + rival_experiment_notes(own, near)
     gains = ', '.join(f'{f.name} (penalised held-out gain {f.criterion:.1f})'
                       for f in passing)
     if own is not None and passing[0].criterion > own.criterion + DECISIVE_DEVIANCE:
@@ -331,12 +330,20 @@ def family_rivals(calibrate_with, problems, nominals, cal, candidates, found, no
                       f'{found}: {best.name} is named, its gain larger by more than '
                       f'{DECISIVE_DEVIANCE:g} (docs/diagnosis_method.md, "Family rivals")']
     against = f' against {own.criterion:.1f} for {found}' if own is not None else ''
-    return None, [f'{found} is named by the search; also explained, calibrated jointly: '
-                  f'{gains}{against}: these records tell them apart only by that gain']
+    notes = [f'{found} is named by the search; also explained, calibrated jointly: '
+             f'{gains}{against}: these records tell them apart only by that gain']
+    if own is None:
+        return None, notes
+    return None, notes + unresolved_note(own, near) + rival_experiment_notes(own, passing + near)
 
 
-def joint_notes(joint, rivals, searched):
-    """Return the report's notes on a JointFit taken over the search's ``searched`` effects."""
+def joint_notes(joint, rivals, searched, near=()):
+    """Return the report's notes on a JointFit taken over the search's ``searched`` effects.
+
+    ``rivals``: the others that explain too (best_joint); ``near``: those only the
+    structure test set apart (unresolved_rivals). Each is said with the experiment
+    that would separate it from the one taken (rivals.py).
+    """
     left = f' with {" + ".join(searched)}' if searched else ''
     pair = len(joint.effects) > 1
     notes = [f'the search left structure{left}; {joint.name}, calibrated jointly with all '
@@ -348,4 +355,4 @@ def joint_notes(joint, rivals, searched):
             f'{f.name} (penalised held-out gain {f.criterion:.1f} against '
             f'{joint.criterion:.1f})' for f in rivals)
             + '; these records tell them apart only by that gain')
-    return notes
+    return notes + unresolved_note(joint, near) + rival_experiment_notes(joint, [*rivals, *near])
