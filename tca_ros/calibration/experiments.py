@@ -91,30 +91,41 @@ def next_experiments(cal):
     """Return [Experiment]: for each confused pair, the candidate that separates it best."""
     out = []
     for a, b, kind, _ in cal.combinations():
-        rivals = _rivals(cal, a, b)
-        own = predictor(cal.start, cal.model, ['displacement'], cal.supply)
-        try:
-            first, second = (own(v, cal.records) for v in rivals)
-            seen = float(np.sqrt(np.mean(np.concatenate(
-                [(p['displacement'] - q['displacement']) ** 2
-                 for p, q in zip(first, second)]))))
-        except (ValueError, ArithmeticError):
-            seen = float('nan')
-        best = None
-        for name, records, channel, noise, unit in candidate_experiments(cal):
-            predict = predictor(cal.start, cal.model, [channel], cal.supply)
-            try:
-                first, second = (predict(v, records) for v in rivals)
-            except (ValueError, ArithmeticError):
-                continue
-            diff = float(np.sqrt(np.mean(np.concatenate(
-                [(p[channel] - q[channel]) ** 2 for p, q in zip(first, second)]))))
-            found = Experiment((a, b), kind, name, diff, noise, unit, seen)
-            if best is None or diff / noise > best.difference / best.noise:
-                best = found
+        best = separating_experiment(cal, _rivals(cal, a, b), (a, b), kind)
         if best is not None:
             out.append(best)
     return out
+
+
+def separating_experiment(cal, rivals, pair, kind):
+    """Return the Experiment of candidate_experiments that best separates two ``rivals``.
+
+    ``rivals``: two calibration value sets ({name: value}, effect parameters by their
+    dotted names) of Calibration ``cal``'s muscle that fit its records alike; each
+    experiment is simulated with both (the quasi-static reduction, predictions.py)
+    and the one whose predictions differ most against its sensor's noise is returned
+    (None when none can be simulated). ``pair`` and ``kind`` label it.
+    """
+    own = predictor(cal.start, cal.model, ['displacement'], cal.supply)
+    try:
+        first, second = (own(v, cal.records) for v in rivals)
+        seen = float(np.sqrt(np.mean(np.concatenate(
+            [(p['displacement'] - q['displacement']) ** 2 for p, q in zip(first, second)]))))
+    except (ValueError, ArithmeticError):
+        seen = float('nan')
+    best = None
+    for name, records, channel, noise, unit in candidate_experiments(cal):
+        predict = predictor(cal.start, cal.model, [channel], cal.supply)
+        try:
+            first, second = (predict(v, records) for v in rivals)
+        except (ValueError, ArithmeticError):
+            continue
+        diff = float(np.sqrt(np.mean(np.concatenate(
+            [(p[channel] - q[channel]) ** 2 for p, q in zip(first, second)]))))
+        found = Experiment(tuple(pair), kind, name, diff, noise, unit, seen)
+        if best is None or diff / noise > best.difference / best.noise:
+            best = found
+    return best
 
 
 def format_experiments(experiments):
