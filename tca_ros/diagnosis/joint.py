@@ -129,11 +129,6 @@ def joint_order(rounds, candidates, top=JOINT_TOP, extra=()):
     fittable = calibratable(candidates)
     ranked = [fittable[s.name] for s in first.scores if s.name in fittable]
     order = ranked[:top]
-    # a refined fit with a positive penalised held-out gain is evidence by the search's
-    # own test even when its held-out RMS is no lower (prewhitening weighs the shape
-    # of the residual over its level): it is calibrated jointly too
-    order += [fittable[s.name] for s in first.scores if s.name in fittable
-              and s.refined and s.criterion > 0.0 and fittable[s.name] not in order]
     for family in FAMILIES:
         if any(c.name in family for c in order):
             order += [c for c in ranked[top:] if c.name in family and c not in order]
