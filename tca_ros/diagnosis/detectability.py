@@ -17,7 +17,7 @@ search; dx/dt is the calibrated nominal model's, at the record's samples (a reco
 sampled slower than its steps loses their slopes, and tau_min grows). The smallest
 tau_min of the channels and parts (held-out, whole record) is reported when no lag
 effect is named, so an `adequate` or `unexplained` verdict says which lags it leaves
-open (docs/diagnosis_method.md, "What a record cannot see").
+open (docs/diagnosis_method.md, "One load, and what a record cannot see").
 """
 import math
 
@@ -71,4 +71,4 @@ def detectability_note(problems, sims, stats, whole_stats, effects):
             f'these records: it moves {channel} by about the lag times its rate of change, '
             f'less than the structure floor ({floor * SCALE[channel]:.3g} '
             f'{UNITS[channel]}) at {rate:.3g} Hz; not being named says nothing about such '
-            'a lag (docs/diagnosis_method.md, "What a record cannot see")']
+            'a lag (docs/diagnosis_method.md, "One load, and what a record cannot see")']

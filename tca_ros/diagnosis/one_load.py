@@ -76,7 +76,7 @@ def softening_on_one_load(calibrate_with, problems, nominals, cal, candidates):
                 f'floor; {absorbed}')
     if named:
         notes = [f'{evidence}: named, its gain over {DECISIVE_DEVIANCE:g} '
-                 '(docs/diagnosis_method.md, "One load")']
+                 '(docs/diagnosis_method.md, "One load, and what a record cannot see")']
     else:
         notes = [f'{evidence}: not decisive (a gain over {DECISIVE_DEVIANCE:g}, no '
                  'structure and no parameter at a bound are needed to name it); the records '
