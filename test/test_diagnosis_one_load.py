@@ -66,3 +66,27 @@ def test_the_shortest_visible_lag_is_the_floor_over_the_rms_rate_of_change():
     assert note.startswith(f'a lag shorter than {tau:.2g} s')
     # a lag named: nothing to say about what the record cannot see
     assert detectability_note(problems, sims, stats, whole, ['sensor_lag']) == []
+
+
+def test_the_heldout_rms_without_the_drift_ignores_a_sensor_drift_from_the_record_zero():
+    # a residual that is a sensor's drift from the record's zero (the verdict's nuisance)
+    # plus a step the inputs made: detrended, the step's RMS is left, the drift's is not
+    from tca_ros.diagnosis.verdict import pooled_heldout_rmse
+    time_s = np.arange(0.0, 200.0, 0.5)
+    step = np.where((time_s > 175.0) & (time_s < 185.0), 30e-6, 0.0)
+    drift = 400e-6 * time_s / time_s[-1]
+    runs = [(200, 260), (340, 400)]
+    problem = SimpleNamespace(record=SimpleNamespace(time=time_s, displacement=drift + step),
+                              sample_rate=2.0, full_runs=runs,
+                              full_heldout_index=np.concatenate([np.arange(a, b)
+                                                                 for a, b in runs]))
+    sim = SimpleNamespace(displacement=np.zeros_like(time_s))
+    raw = pooled_heldout_rmse([problem], [sim], ['displacement'])['displacement']
+    kept = pooled_heldout_rmse([problem], [sim], ['displacement'], detrend=True)['displacement']
+    held = np.concatenate([(drift + step)[a:b] for a, b in runs])
+    assert raw == pytest.approx(np.sqrt(np.mean(held ** 2)))
+    assert kept < 0.2 * raw
+    # without the drift the step stays (less what a drift line through it takes)
+    problem.record.displacement = step
+    alone = pooled_heldout_rmse([problem], [sim], ['displacement'], detrend=True)
+    assert alone['displacement'] > 0.5 * np.sqrt(np.mean(step[problem.full_heldout_index] ** 2))
