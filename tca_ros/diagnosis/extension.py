@@ -14,9 +14,10 @@ from tca_ros.diagnosis.findings import explain_findings, finding_effects, found_
     unexplained_findings
 from tca_ros.diagnosis.joint import beats_nominal, family_rivals, joint_extension, \
     joint_notes
+from tca_ros.diagnosis.one_load import predictable_below_floor, softening_on_one_load
 from tca_ros.diagnosis.search import MIN_GAIN_PERCENT, search_effects
-from tca_ros.diagnosis.verdict import channel_stats, decide_verdict, needs_explaining, \
-    NOTHING_TO_EXPLAIN, pooled_heldout_rmse
+from tca_ros.diagnosis.verdict import channel_stats, decide_verdict, holds_one_load, \
+    needs_explaining, NOTHING_TO_EXPLAIN, pooled_heldout_rmse
 from tca_ros.diagnosis.verdict_text import found_sentence
 from tca_ros.model.params_schema import SPECS
 
@@ -128,6 +129,17 @@ def second_opinions(nominal, calibrate_with, effects, values, extendeds, rounds,
                                                             found_text(taken)),)
         elif adequate and cal.findings():  # adequate only by leaving the description
             judgement = judgement[:2] + ('unexplained', unexplained_findings(cal))
+    if (judgement[2] == 'adequate' and not effects and cal is not None
+            and holds_one_load([p.record for p in nominal.problems])
+            and predictable_below_floor(nominal.stats, nominal.whole_stats)):
+        # adequate by the practical floor while the inputs still predict the residual:
+        # on one load the calibrated gain may hide a softening modulus (one_load.py)
+        taken, said = softening_on_one_load(calibrate_with, nominal.problems, nominal.sims,
+                                            cal, nominal.candidates)
+        notes.extend(said)
+        if taken is not None:
+            joint = taken
+            effects, values, extendeds, judgement = nominal.adopted(taken)
     rmse, stats, verdict, explanation = judgement
     pinned = parameters_at_bounds(effects, values, nominal.candidates)
     if verdict == 'explained' and pinned:

@@ -13,6 +13,7 @@ import numpy as np
 from tca_ros.calibration.candidates import ABSORBED, absorbed_candidates
 from tca_ros.calibration.conditions import held_strength
 from tca_ros.calibration.progress import Progress
+from tca_ros.diagnosis.detectability import detectability_note
 from tca_ros.diagnosis.extension import Nominal, run_search, second_opinions
 from tca_ros.diagnosis.holdout import AUTO, choose_validation, DEFAULT_VALIDATION
 from tca_ros.diagnosis.joint import JOINT_NFEV
@@ -242,6 +243,8 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
             [p.record for p in problems],
             [p.record.displacement - s.displacement for p, s in zip(problems, extendeds)],
             [p.full_heldout_index for p in problems]))
+    notes.extend(detectability_note(problems, nominals, nominal.stats, nominal.whole_stats,
+                                    effects))
     helpful = []
     if verdict == 'unexplained' and effects and not found:
         # what helps is shown, but an effect that leaves structure is not a cause (unless

@@ -71,14 +71,15 @@ def beats_nominal(problems, nominals, extendeds, added, nominal_rmse):
             and lowers_heldout_rms(problems, extendeds, nominal_rmse))
 
 
-def lowers_heldout_rms(problems, extendeds, nominal_rmse):
+def lowers_heldout_rms(problems, extendeds, nominal_rmse, detrend=False):
     """Return True when ``extendeds`` cut the held-out RMS by MIN_GAIN_PERCENT or more.
 
     Channels weighted by their noise sigma; ``nominal_rmse`` is the nominal's
-    pooled held-out RMSE ({channel: m or K}).
+    pooled held-out RMSE ({channel: m or K}); ``detrend``: both with the verdict's
+    drift removed (verdict.pooled_heldout_rmse).
     """
     sigma, channels = problems[0].sigma, problems[0].channels
-    after = pooled_heldout_rmse(problems, extendeds, channels)
+    after = pooled_heldout_rmse(problems, extendeds, channels, detrend)
     score = [math.sqrt(sum((rmse[c] / sigma[c]) ** 2 for c in channels))
              for rmse in (nominal_rmse, after)]
     return score[1] <= (1.0 - MIN_GAIN_PERCENT / 100.0) * score[0]

@@ -11,7 +11,7 @@ import numpy as np
 
 from tca_ros.calibration.residuals import residual_stats
 from tca_ros.diagnosis.noise import heldout_deviance_gain, structure_test
-from tca_ros.diagnosis.regressors import input_terms_in_runs
+from tca_ros.diagnosis.regressors import input_terms_in_runs, remove_nuisance_jointly
 from tca_ros.diagnosis.verdict_text import confirmed_sentence, verdict_sentence
 from tca_ros.model.thermal import thermal_time_constant
 
@@ -23,12 +23,25 @@ def gain(before, after):
     return 100.0 * (1.0 - after / before) if before > 0.0 else 0.0
 
 
-def pooled_heldout_rmse(problems, sims, channels):
-    """Return {channel: RMSE} over the held-out parts of all records (m, K)."""
+def pooled_heldout_rmse(problems, sims, channels, detrend=False):
+    """Return {channel: RMSE} over the held-out parts of all records (m, K).
+
+    ``detrend``: of the residual less the verdict's nuisance (per record a drift from
+    the record's zero, shared by its held-out runs: regressors.nuisance_design), the
+    part a sensor drift cannot explain.
+    """
     out = {}
     for c in channels:
-        res = np.concatenate([(getattr(p.record, c) - getattr(s, c))[p.full_heldout_index]
-                              for p, s in zip(problems, sims)])
+        parts, items = [], []
+        for p, s in zip(problems, sims):
+            res = getattr(p.record, c) - getattr(s, c)
+            for a, b in p.full_runs:
+                parts.append(res[a:b])
+                items.append((b - a, p.sample_rate, float(p.record.time[a] - p.record.time[0]),
+                              id(p)))
+        if detrend:
+            parts = remove_nuisance_jointly(parts, items)
+        res = np.concatenate(parts)
         out[c] = float(np.sqrt(np.mean(res ** 2)))
     return out
 
