@@ -41,6 +41,23 @@ class Experiment:
         """Return True when the rivals differ by SEPARATES noise units or more."""
         return self.difference >= SEPARATES * self.noise
 
+    def sentence(self):
+        """Return what the experiment tells: '<experiment> separates them (... RMS ...)'.
+
+        The report's one wording for calibration pairs, diagnosis rivals and the
+        one-load softening; displacements in mm, temperatures in K.
+        """
+        told = 'separates them' if self.separates else 'would not separate them either'
+        return (f'{self.experiment} {told} (simulated with each, they differ by '
+                f'{shown(self.difference, self.unit)} RMS there, '
+                f'{shown(self.on_records, "m")} on these records; noise '
+                f'{shown(self.noise, self.unit)})')
+
+
+def shown(value, unit):
+    """Return ``value`` (m or K) as the reports write it: displacements in mm."""
+    return f'{value * 1e3:.3g} mm' if unit == 'm' else f'{value:.3g} {unit}'
+
 
 def _rivals(cal, a, b):
     """Return two value sets one posterior spread apart along the pair's confused direction.
@@ -162,12 +179,6 @@ def next_experiments(cal):
 
 
 def format_experiments(experiments):
-    """Return the report lines of ``next_experiments``."""
-    lines = []
-    for e in experiments:
-        told = 'separates them' if e.separates else 'would not separate them either'
-        lines.append(f'next experiment for the {e.kind} of {e.pair[0]} and {e.pair[1]}: '
-                     f'{e.experiment} {told} (rivals one posterior spread apart differ by '
-                     f'{e.difference:.3g} {e.unit} RMS there, {e.on_records:.3g} m on these '
-                     f'records; noise {e.noise:.3g} {e.unit})')
-    return lines
+    """Return the report lines of ``next_experiments`` (rivals one posterior spread apart)."""
+    return [f'next experiment for the {e.kind} of {e.pair[0]} and {e.pair[1]} (one posterior '
+            f'spread apart): {e.sentence()}' for e in experiments]

@@ -93,12 +93,8 @@ def softening_on_one_load(calibrate_with, problems, nominals, cal, candidates):
                  'are needed to name it); the records do not tell it from the calibrated gain']
     experiment = _experiment(cal, fit)
     if experiment is not None:
-        told = 'separates them' if experiment.separates else 'would not separate them either'
         notes.append(f'next experiment for {RIVAL} against the calibrated nominal model: '
-                     f'{experiment.experiment} {told} (their predictions differ by '
-                     f'{experiment.difference * 1e6:.3g} um RMS there, '
-                     f'{experiment.on_records * 1e6:.3g} um on these records; noise '
-                     f'{experiment.noise * 1e6:.3g} um)')
+                     f'{experiment.sentence()}')
     return (fit if named else None), notes
 
 

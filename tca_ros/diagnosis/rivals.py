@@ -87,11 +87,6 @@ def rival_experiment(named, rival):
     return separating_experiment(cal, values, (named.name, rival.name), 'effects')
 
 
-def _shown(value, unit):
-    """Return ``value`` (m or K) as the report writes it: displacements in mm."""
-    return f'{value * 1e3:.3g} mm' if unit == 'm' else f'{value:.3g} {unit}'
-
-
 def rival_experiment_notes(named, rivals, equal=None):
     """Return the report's notes: per equal rival, the experiment that separates it.
 
@@ -113,11 +108,6 @@ def rival_experiment_notes(named, rivals, equal=None):
         e = rival_experiment(named, rival)
         if e is None:
             continue
-        told = ('separates them' if e.separates else
-                'is the best tried and would not separate them either')
         notes.append(f'{named.name} and {rival.name} are rivals: calibrated jointly, each fits '
-                     f'these records (the two differ by {_shown(e.on_records, "m")} RMS on '
-                     f'them); {e.experiment} {told}: simulated with each, they differ by '
-                     f'{_shown(e.difference, e.unit)} RMS there (noise '
-                     f'{_shown(e.noise, e.unit)})')
+                     f'these records; {e.sentence()}')
     return notes
