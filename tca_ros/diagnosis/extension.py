@@ -38,6 +38,9 @@ class Nominal:
         # an effect may show in the training part only (creep settled before the split)
         self.whole_stats = channel_stats(self.problems, self.sims, whole=True)
         self.rmse = pooled_heldout_rmse(self.problems, self.sims, self.problem.channels)
+        # the reference of the 1 % rule (joint.lowers_heldout_rms): drift removed
+        self.drift_free_rmse = pooled_heldout_rmse(self.problems, self.sims,
+                                                   self.problem.channels, detrend=True)
 
     def judged(self, effects, values, extendeds, confirmed=None):
         """Return (held-out RMSE, residual stats, verdict, explanation) of an extension.
@@ -73,7 +76,8 @@ def run_search(nominal, notes):
     values = values if effects else dict(start_values)  # not the round-one polish
     extendeds = [p.simulate_full(values) for p in problems] if effects else nominal.sims
     added = len([k for k in values if k not in start_values])
-    if effects and not beats_nominal(problems, nominal.sims, extendeds, added, nominal.rmse):
+    if effects and not beats_nominal(problems, nominal.sims, extendeds, added,
+                                     nominal.drift_free_rmse):
         # each effect was accepted against the round's base (the nominal with its
         # calibration refitted); the whole extension must beat the calibrated
         # nominal itself by the search's own rule, or it is no improvement to report
@@ -105,7 +109,8 @@ def second_opinions(nominal, calibrate_with, effects, values, extendeds, rounds,
         # the search's nominal refit is narrow: calibrate its first round's best
         # candidates together with the nominal parameters (joint.py)
         joint, rivals, near = joint_extension(calibrate_with, nominal.problems, nominal.sims,
-                                              cal, nominal.candidates, rounds, nominal.rmse,
+                                              cal, nominal.candidates, rounds,
+                                              nominal.drift_free_rmse,
                                               extra=named_by_findings)
         if joint is not None:
             notes.extend(joint_notes(joint, rivals, effects, near))
@@ -153,7 +158,8 @@ def second_opinions(nominal, calibrate_with, effects, values, extendeds, rounds,
         # one effect of a family the records may not tell apart: its rivals calibrated
         # jointly; one decisively better replaces it, the others are said
         taken, said = family_rivals(calibrate_with, nominal.problems, nominal.sims, cal,
-                                    nominal.candidates, effects[0], nominal.rmse)
+                                    nominal.candidates, effects[0],
+                                    nominal.drift_free_rmse)
         notes.extend(said)
         if taken is not None:
             effects, values, extendeds, judgement = nominal.adopted(taken)

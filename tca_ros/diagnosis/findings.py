@@ -188,7 +188,7 @@ def found_despite_structure(calibrate_with, problems, cal, tests):
         return None
     deviance, n = heldout_deviance(problems, sims, best.fit.sims)
     gain = deviance - (best.fit.n_params + len(best.names)) * math.log(max(n, 2))
-    reference = pooled_heldout_rmse(problems, sims, problems[0].channels)
+    reference = pooled_heldout_rmse(problems, sims, problems[0].channels, detrend=True)
     if not (gain > 0.0 and lowers_heldout_rms(problems, best.fit.sims, reference)):
         return None
     best.over_described = float(gain)

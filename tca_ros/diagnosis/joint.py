@@ -63,23 +63,25 @@ def beats_nominal(problems, nominals, extendeds, added, nominal_rmse):
 
     As each candidate is accepted (search._greedy): a positive penalised held-out
     gain under the verdict's noise model (verdict.heldout_gain_over) and a
-    held-out RMS gain of at least MIN_GAIN_PERCENT (:func:`lowers_heldout_rms`),
-    here on the record-rate simulations of both whole models.
-    ``nominal_rmse``: the nominal's pooled held-out RMSE ({channel: m or K}).
+    drift-free held-out RMS gain of at least MIN_GAIN_PERCENT
+    (:func:`lowers_heldout_rms`), here on the record-rate simulations of both
+    whole models. ``nominal_rmse``: the nominal's pooled held-out RMSE, drift
+    removed ({channel: m or K}; Nominal.drift_free_rmse).
     """
     return (heldout_gain_over(problems, nominals, extendeds, added) > 0.0
             and lowers_heldout_rms(problems, extendeds, nominal_rmse))
 
 
-def lowers_heldout_rms(problems, extendeds, nominal_rmse, detrend=False):
-    """Return True when ``extendeds`` cut the held-out RMS by MIN_GAIN_PERCENT or more.
+def lowers_heldout_rms(problems, extendeds, nominal_rmse):
+    """Return True when ``extendeds`` cut the drift-free held-out RMS by MIN_GAIN_PERCENT.
 
-    Channels weighted by their noise sigma; ``nominal_rmse`` is the nominal's
-    pooled held-out RMSE ({channel: m or K}); ``detrend``: both with the verdict's
-    drift removed (verdict.pooled_heldout_rmse).
+    Channels weighted by their noise sigma; ``nominal_rmse`` is the reference's
+    pooled held-out RMSE with the verdict's drift removed ({channel: m or K};
+    verdict.pooled_heldout_rmse with ``detrend``), and so is the extension's:
+    a gain that only fits a sensor's drift is not a gain (decisions G46).
     """
     sigma, channels = problems[0].sigma, problems[0].channels
-    after = pooled_heldout_rmse(problems, extendeds, channels, detrend)
+    after = pooled_heldout_rmse(problems, extendeds, channels, detrend=True)
     score = [math.sqrt(sum((rmse[c] / sigma[c]) ** 2 for c in channels))
              for rmse in (nominal_rmse, after)]
     return score[1] <= (1.0 - MIN_GAIN_PERCENT / 100.0) * score[0]

@@ -71,7 +71,7 @@ def softening_on_one_load(calibrate_with, problems, nominals, cal, candidates):
     before = pooled_heldout_rmse(problems, nominals, channels, detrend=True)
     after = pooled_heldout_rmse(problems, fit.sims, channels, detrend=True)
     named = (fit.criterion > DECISIVE_DEVIANCE and fall > 0.0 and fit.explained
-             and not fit.pinned and lowers_heldout_rms(problems, fit.sims, before, True))
+             and not fit.pinned and lowers_heldout_rms(problems, fit.sims, before))
     value = fit.values.get('effects.extra_softening', 0.0)
     gain = cal.report.values.get('actuation_gain')
     moved = next((r.z for r in cal.plausibility() if r.name == 'actuation_gain'), None)

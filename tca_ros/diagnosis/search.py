@@ -10,7 +10,8 @@ and screens, fits and scores each candidate on it with candidate_fit.py.
    effects already found refitted jointly with each, and scores them on the held-out part.
 3. A candidate is accepted when its held-out gain is significant under the verdict's
    noise model (an offset and a drift per record, AR(p) noise; verdict.noise_model_gain)
-   and at least MIN_GAIN_PERCENT; the search repeats with the added effects as the new
+   and its held-out RMS, drift removed (verdict.drift_free_heldout_score), falls by at
+   least MIN_GAIN_PERCENT; the search repeats with the added effects as the new
    base until the held-out residual is within WHITE_SCORE of the sensor noise or the
    verdict's test finds no structure left in it.
 4. When the greedy path ends with structured residuals it restarts once from the first
@@ -22,7 +23,8 @@ from dataclasses import dataclass
 import math
 
 from tca_ros.diagnosis.candidate_fit import fit_candidate, score_fit, screen
-from tca_ros.diagnosis.verdict import channel_stats, needs_explaining, noise_model_gain
+from tca_ros.diagnosis.verdict import channel_stats, drift_free_heldout_score, \
+    gain as heldout_gain, needs_explaining, noise_model_gain
 
 REFINE_TOP = 3  # candidates refined by least squares after screening
 POLISH_NFEV = 10  # iterations of the joint refit after an effect is added
@@ -218,6 +220,7 @@ def _greedy(problem, candidates, max_effects, refine_top, min_gain_percent, firs
         if found and not _structure_left(problem, values, base_score):
             break  # the residual is noise: nothing left for a further effect to explain
         base_residuals = problem.heldout_residuals(values)
+        base_drift_free = drift_free_heldout_score(problem, base_residuals)
         lags = [c for c in remaining if c.name in LAG_EFFECTS]
         exchange, lag = _lag_exchange(problem, values) if lags else ((), None)
         screened = [(screen(problem, _with_start(c, lag), exchange)
@@ -233,9 +236,11 @@ def _greedy(problem, candidates, max_effects, refine_top, min_gain_percent, firs
             fit = fit_candidate(problem, cand, trials[0][1], refine=refine,
                                 free=free if refine else (), base_start=trials[0][3])
             score = score_fit(problem, fit, refine)
+            residuals = problem.heldout_residuals(score.values)
             score.criterion = noise_model_gain(problem, base_residuals, score.values,
-                                               cand.n_params)
-            gain = 100.0 * (1.0 - score.heldout_score / base_score)
+                                               cand.n_params, residuals)
+            # the 1 % rule on the drift-free RMS: a fitted drift is not a gain (G46)
+            gain = heldout_gain(base_drift_free, drift_free_heldout_score(problem, residuals))
             score.significant = bool(fit.success and score.criterion > 0.0
                                      and gain >= min_gain_percent)
             return score

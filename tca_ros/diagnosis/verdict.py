@@ -46,6 +46,29 @@ def pooled_heldout_rmse(problems, sims, channels, detrend=False):
     return out
 
 
+def drift_free_heldout_score(problem, residuals):
+    """Return the held-out RMS (in sensor sigmas, -) of ``residuals`` less the drift.
+
+    ``residuals``: ``problem.heldout_residuals(values)`` (None: the model failed,
+    +inf). Per channel the verdict's nuisance (a drift from each record's zero,
+    shared by its held-out runs) is removed jointly, then each channel is divided
+    by its sensor noise sigma: the coarse-grid form of
+    ``pooled_heldout_rmse(..., detrend=True)`` that the search's 1 % rule uses,
+    so a candidate is not accepted for fitting a sensor's drift (decisions G46).
+    """
+    if residuals is None:
+        return math.inf
+    items = list(zip([len(next(iter(r.values()))) for r in residuals], problem.coarse_rates,
+                     problem.heldout_starts, problem.heldout_groups))
+    total, n = 0.0, 0
+    for c in problem.channels:
+        parts = remove_nuisance_jointly([r[c] for r in residuals], items)
+        res = np.concatenate(parts) / problem.sigma[c]
+        total += float(res @ res)
+        n += res.size
+    return math.sqrt(total / n) if n else math.inf
+
+
 def channel_stats(problems, sims, params=None, whole=False):
     """Return {channel: ResidualStats} of ``sims`` on the held-out parts (record rate).
 
@@ -191,7 +214,7 @@ def heldout_deviance(problems, base_sims, sims):
     return heldout_deviance_gain(pairs)
 
 
-def noise_model_gain(problem, base_residuals, values, added_params):
+def noise_model_gain(problem, base_residuals, values, added_params, residuals=None):
     """Return the BIC-penalised held-out gain of ``values`` under the verdict's noise model.
 
         D - k ln(n)
@@ -200,9 +223,10 @@ def noise_model_gain(problem, base_residuals, values, added_params):
     zero is noise, the rest AR(p) noise: the model the verdict judges residuals by),
     n its sample count, k the added parameters. Positive: the candidate
     predicts the held-out part better than k parameters fitted to noise would.
-    ``base_residuals`` is ``problem.heldout_residuals`` of the base.
+    ``base_residuals`` is ``problem.heldout_residuals`` of the base; ``residuals``
+    those of ``values`` when already simulated.
     """
-    cand = problem.heldout_residuals(values)
+    cand = problem.heldout_residuals(values) if residuals is None else residuals
     if base_residuals is None or cand is None:
         return -math.inf
     rates, starts, groups = problem.coarse_rates, problem.heldout_starts, \
