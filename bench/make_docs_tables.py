@@ -110,6 +110,8 @@ def _generator_range(name, dotted):
         m_low, m_high = gen.CONTACT_MASS_RANGE_KG
         return (f'stop cuts the peak stroke to {number(100 * low)}-{number(100 * high)} % '
                 f'({number(1e3 * m_low)}-{number(1e3 * m_high)} g loads)')
+    if dotted not in gen.EFFECT_RANGES:  # a start state (candidates.START_STATES)
+        return "not drawn: the plant's history puts it (0 at rest, an edge after a heating)"
     low, high, log = gen.EFFECT_RANGES[dotted]
     either = ', either sign' if dotted == 'effects.ambient_offset' else ''
     return span(low, high, SPECS[dotted].unit) + either + (' (log)' if log else '')

@@ -171,3 +171,41 @@ def test_quasistatic_voltage_supply_sees_the_position_held_by_friction():
     assert stroke < 0.8 * free.displacement.max()
     # measured 11 um RMS of a 20 mm stroke (the nominal reduction: 36 um of 28 mm)
     assert np.sqrt(np.mean((full.displacement - fast.displacement) ** 2)) < 0.002 * stroke
+
+
+@pytest.mark.parametrize('start', [-1.0, 1.0])
+def test_the_start_in_the_band_moves_the_end_by_its_static_force_and_reads_zero(start):
+    # effects.friction_start s puts the end at y_eq(F + s F_s) and the displacement
+    # reads zero there (G45): every stepper starts the same way
+    p = _params(0.02, **{'effects.friction_start': start})
+    sim = TcaSimulator(p, model='cst')
+    assert sim.state.displacement == 0.0
+    assert sim.state.elongation == pytest.approx(sim.equilibrium(LOAD + start * 0.02, 25.0))
+    t, power = _cycle(20.0, duration=40.0)
+    dyn = simulate(p, t, power, model='cst')
+    qs = simulate_quasistatic(p, t, power, model='cst')
+    volt = simulate_quasistatic(p, t, power, model='cst', supply='voltage')
+    for result in (dyn, qs, volt):
+        assert abs(result.displacement[0]) < 1e-9  # m
+    # the 10 g mass against its massless reduction: 0.1 % of the 8.7 mm stroke
+    assert np.max(np.abs(dyn.displacement - qs.displacement)) < 1e-5  # m
+
+
+def test_a_record_cut_after_a_heating_is_the_model_started_at_the_shortened_edge():
+    # a muscle heated and cooled before its record: friction left its end short of the
+    # equilibrium. The same plant recorded from there (re-zeroed) is the model started
+    # with friction_start = -1, and not the one started at rest in its band
+    rate = 20.0
+    t = np.arange(0.0, 160.0, 1.0 / rate)
+    power = np.where(((t >= 5.0) & (t < 30.0)) | ((t >= 85.0) & (t < 110.0)), 1.0, 0.0)
+    p = _params(0.02)
+    history = simulate(p, t, power, model='cst')
+    cut = t >= 80.0
+    recorded = history.displacement[cut] - history.displacement[cut][0]
+    rms = {}
+    for start in (-1.0, 0.0, 1.0):
+        model = simulate(p.with_values(**{'effects.friction_start': start}), t[cut] - 80.0,
+                         power[cut], model='cst')
+        rms[start] = float(np.sqrt(np.mean((model.displacement - recorded) ** 2)))
+    assert rms[-1.0] < 1e-9  # m: the same trajectory
+    assert rms[0.0] > 2e-4 and rms[1.0] > rms[0.0]  # started at rest: 0.7 mm off

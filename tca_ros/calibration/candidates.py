@@ -70,7 +70,13 @@ _SPACES = {
     # F_c / k of 0.1 N is ~4 mm on the 23 N/m free-stroke coil: beyond a recorded offset
     'effects.friction_force': (ParameterSpace('effects.friction_force', 0.0, 0.1),
                                (0.005, 0.02, 0.05)),
+    # where the end starts in its band: at rest (0) or left at an edge by a heating (-1, 1)
+    'effects.friction_start': (ParameterSpace('effects.friction_start', -1.0, 1.0),
+                               (-1.0, 0.0, 1.0)),
 }
+#: parameters whose range ends are states a muscle is found in, not limits a fit runs
+#: into: a friction-held end starts at an edge of its band after any heating
+START_STATES = ('effects.friction_start',)
 
 
 def effect_space(name):
@@ -242,9 +248,11 @@ def parameters_at_bounds(effects, values, candidates):
     A parameter fitted to the end of its physical range (a 15 K ambient offset,
     a 3 s sensor lag) says the data ask for more of it than it can be: the
     effect then stands in for something else and is not named as the cause.
-    The lower end counts only where it is not zero (zero is the effect's absence).
+    The lower end counts only where it is not zero (zero is the effect's absence);
+    the ends of START_STATES' ranges are states, not limits, and do not count.
     """
-    spaces = {s.name: s for c in candidates if c.name in effects for s in c.spaces}
+    spaces = {s.name: s for c in candidates if c.name in effects for s in c.spaces
+              if s.name not in START_STATES}
     out = []
     for name, space in spaces.items():
         value = values.get(name)

@@ -39,6 +39,7 @@ A whole sampled profile is run by ``simulate`` in simulation.py, which also hold
 from dataclasses import dataclass
 import math
 
+from tca_ros.model import effects as fx
 from tca_ros.model.end_motion import central_difference_step, contact_stop, creep_step
 from tca_ros.model.end_motion import EndMotion
 from tca_ros.model.kinetostatic_models import make_kinetostatic_model
@@ -138,22 +139,25 @@ class TcaSimulator:
 
         The default temperature is ambient plus ``thermal.initial_temperature_rise``
         (K; 0: at rest). The displacement reference is the loaded equilibrium at
-        ambient, so a warm start reads the contraction of its excess.
+        ambient, so a warm start reads the contraction of its excess; with
+        friction both are taken under F + s F_s (effects.friction_start_load).
         """
         p = self.params
         load = p.dynamics.load if load is None else float(load)
         ambient = self._heat.ambient
         temp = (ambient + p.thermal.initial_temperature_rise if temperature is None
                 else float(temperature))
-        q = self.equilibrium(load, temp)
-        self.reference_elongation = self.equilibrium(load, ambient)
+        # with friction the end may start held at an edge of its band (effects.py)
+        held = load + fx.friction_start_load(p.effects)
+        q = self.equilibrium(held, temp)
+        self.reference_elongation = self.equilibrium(held, ambient)
         self.loaded_length = self.kinetostatics.natural_length + self.reference_elongation
         self._heat.reset()
         self.state = TcaState(time=0.0, temperature=temp, actuation_temperature=temp,
                               fiber_temperature=temp,
                               elongation=q, previous_elongation=q, load=load)
         self.state.tension = self.kinetostatics.tension(q, temp)
-        check_start_state(load, temp, q, self.state.tension, self.reference_elongation,
+        check_start_state(held, temp, q, self.state.tension, self.reference_elongation,
                           self._contact)
         self._update_outputs(self.state, 0.0)
         self.state.measured_displacement = self.state.displacement

@@ -25,8 +25,9 @@ second_thermal_lag   second_thermal_lag (s)        tau_2 dT_f/dt = T - T_f; T_f 
                                                    (core vs surface, heater vs thread)
 friction             friction_force F_k (N),       Coulomb friction on the free end:
                      static_friction_ratio         stick while |F - f_rod| <= F_s = r F_k,
-                     r = F_s / F_k (-)             slide against F_k (Karnopp; play
-                                                   operator on y when massless)
+                     r = F_s / F_k (-),            slide against F_k (Karnopp; play
+                     friction_start s (-)          operator on y when massless); the
+                                                   end starts at y_eq(F + s F_s)
 ==================== ============================= ===================================
 
 References
@@ -73,8 +74,9 @@ CATALOGUE = {
     'power_loss': ('effects.power_loss_fraction',),
     'dead_time': ('effects.dead_time',),
     'second_thermal_lag': ('effects.second_thermal_lag',),
-    # F_s / F_k is not searched: the stick-slip it adds makes the cost jump with it
-    'friction': ('effects.friction_force',),
+    # F_s / F_k is not searched: the stick-slip it adds makes the cost jump with it; where
+    # the end starts in its band is (a muscle heated before its record starts at an edge)
+    'friction': ('effects.friction_force', 'effects.friction_start'),
 }
 
 
@@ -132,6 +134,20 @@ def coulomb_friction(holding_force, at_rest, effects):
     if abs(holding_force) <= limit:
         return holding_force, True
     return math.copysign(kinetic, holding_force), False
+
+
+def friction_start_load(effects):
+    """Return the friction force s F_s (N) that holds the free end where it starts, 'friction'.
+
+    A muscle heated and cooled before its record starts with its end held at an
+    edge of the static band, not at the equilibrium under its load: the end sits
+    at y_eq(F + s F_s, T_0), s = ``effects.friction_start`` in [-1, 1] (-1: the
+    shortened edge, where cooling left an end that friction stopped short; 1: the
+    stretched edge) and F_s = r F_k the static friction (N). Every stepper starts
+    the end there and reads the displacement from it (a record reads zero at its
+    start; docs/decisions.md G45). Zero without friction.
+    """
+    return effects.friction_start * effects.friction_force * effects.static_friction_ratio
 
 
 def friction_play(elongation, static_band, kinetic_band):

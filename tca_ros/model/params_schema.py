@@ -165,6 +165,10 @@ SCHEMA = (
        'Friction: Coulomb (kinetic) force opposing the motion of the free end.', 0.0, 100.0),
     _p('effects.static_friction_ratio', 1.0, '-',
        'Friction: static over kinetic force (> 1: stick-slip jumps).', 1.0, 10.0),
+    _p('effects.friction_start', 0.0, '-',
+       'Friction: where in its static band the free end starts (-1: its shortened edge, '
+       'held by F_s against contraction; 0: at its equilibrium; 1: its stretched edge).',
+       -1.0, 1.0),
     # Load rig of the free end (tca_ros.model.rigs, docs/rigs.md)
     _p('rig.mode', 'dead_weight', '-',
        'Load on the free end: dead_weight (eq. (18) as printed), spring (in series), '

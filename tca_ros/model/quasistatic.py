@@ -150,14 +150,18 @@ class QuasiStaticPlant:
             held = load[np.searchsorted(time, grid, side='right') - 1]
             acting = np.concatenate(([load[0]], held[:-1]))
         y_eq, stiffness = self._equilibria(actuating, acting, distinct)
-        y_ref = self.reference_elongation(float(load[0]))
+        # with friction the end may start held at an edge of its band (effects.py)
+        start_load = fx.friction_start_load(e)
+        y_ref = self.reference_elongation(float(load[0]) + start_load)
         creep = qe.creep_elongation(grid, held, e)  # the free end's tension is the load
         # the coil and the creep element in series: q = y_coil + y_c, behind the lag
         elongation = _mechanical_lag(grid, y_eq + creep, stiffness, params.dynamics.damping)
         tension = acting
         if e.friction_force > 0.0:
+            start = elongation[0] + (self.lookup(float(acting[0]) + start_load,
+                                                 actuating[:1])[0][0] - y_eq[0])
             elongation, tension, creep = self._friction(grid, actuating, acting, distinct,
-                                                        creep, elongation[0])
+                                                        creep, start)
         elongation, tension, creep = elongation[samples], tension[samples], creep[samples]
         contraction = y_ref - elongation
         tension = np.where(elongation - creep <= self.stop, np.maximum(tension, 0.0),

@@ -44,7 +44,8 @@ def voltage_drive(plant, time, power, acting, creep):
     decay = heat_decay(intervals, balance)
     lag = effects.second_thermal_lag
     nominal = delayed_input(time, np.asarray(power, dtype=float), effects.dead_time)  # W at R0
-    y_ref = plant.reference_elongation(float(acting[0]))
+    start_load = fx.friction_start_load(effects)  # N: where in its band the end starts
+    y_ref = plant.reference_elongation(float(acting[0]) + start_load)
     length = plant.kinetostatics.natural_length + y_ref
     t0 = p.thermal.ambient_temperature
     n = time.size
@@ -105,7 +106,7 @@ def voltage_drive(plant, time, power, acting, creep):
         return 1.0 / r
 
     y_eq[0], stiffness[0] = lookup(float(acting[0]), fiber[0])
-    position[0] = y_eq[0]
+    position[0] = lookup(float(acting[0]) + start_load, fiber[0])[0]
     for k in range(n - 1):
         # Heun: the power of each interval is the mean of 1/R at its two ends
         first = inverse_resistance(k)

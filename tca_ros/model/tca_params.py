@@ -121,6 +121,7 @@ class EffectParams:
     second_thermal_lag: float = 0.0
     friction_force: float = 0.0
     static_friction_ratio: float = 1.0
+    friction_start: float = 0.0
 
 
 @dataclass(frozen=True)
