@@ -107,7 +107,7 @@ EFFECT_VALUES = {
     'power_loss': {'effects.power_loss_fraction': 0.1},
     'dead_time': {'effects.dead_time': 0.4},
     'second_thermal_lag': {'effects.second_thermal_lag': 2.0},
-    'friction': {'effects.friction_force': 0.01},
+    'friction': {'effects.friction_force': 0.01, 'effects.friction_start': -1.0},
 }
 
 
