@@ -209,3 +209,15 @@ def test_a_record_cut_after_a_heating_is_the_model_started_at_the_shortened_edge
         rms[start] = float(np.sqrt(np.mean((model.displacement - recorded) ** 2)))
     assert rms[-1.0] < 1e-9  # m: the same trajectory
     assert rms[0.0] > 2e-4 and rms[1.0] > rms[0.0]  # started at rest: 0.7 mm off
+
+
+def test_a_start_held_beyond_the_thread_strength_is_refused_in_one_line():
+    p = _params(0.5, ratio=10.0, **{'effects.friction_start': 1.0})  # 5 N held at the start
+    with pytest.raises(ValueError) as err:
+        TcaSimulator(p, model='cst')
+    message = str(err.value)
+    assert '\n' not in message and message.startswith('effects.friction_start = 1:')
+    assert 'fiber.break_force' in message
+    # held in compression by friction stronger than the weight: the coil closes, a state
+    sim = TcaSimulator(_params(0.1, **{'effects.friction_start': -1.0}), model='cst')
+    assert math.isfinite(sim.state.elongation) and sim.state.displacement == 0.0

@@ -150,11 +150,11 @@ class TcaSimulator:
         # with friction the end may start held at an edge of its band (effects.py)
         start_load = fx.friction_start_load(p.effects)
         held = load + start_load
-        if start_load != 0.0 and not 0.0 <= held <= p.fiber.break_force:
+        if start_load != 0.0 and not held <= p.fiber.break_force:
             raise ValueError(
                 f'effects.friction_start = {p.effects.friction_start:g}: the rod would start '
-                f'under {held:.4g} N (load {load:g} N + s F_s {start_load:.4g} N); allowed: '
-                f'0 to fiber.break_force {p.fiber.break_force:g} N')
+                f'under {held:.4g} N (load {load:g} N + s F_s {start_load:.4g} N), beyond '
+                f'fiber.break_force {p.fiber.break_force:g} N; allowed: a start the thread holds')
         q = self.equilibrium(held, temp)
         self.reference_elongation = self.equilibrium(held, ambient)
         self.loaded_length = self.kinetostatics.natural_length + self.reference_elongation
