@@ -212,7 +212,7 @@ def confirm_on_whole(whole, problems, cal, fit, joint):
     return None if needs_explaining(stats) else stats
 
 
-def pair_order(rounds, candidates, fits):
+def pair_order(rounds, candidates, fits, extra=()):
     """Return the pairs to calibrate jointly when no single joint fit explains the data.
 
     Two effects at once are what a single joint fit that helps but leaves
@@ -223,13 +223,16 @@ def pair_order(rounds, candidates, fits):
     round when the search did not add it, leaving out the lead's own family (its
     rivals, not its complements) and coil contact. At most MAX_PAIRS, as tuples.
     A record where no single effect helps gets no pair: the nulls and the defects
-    outside the catalogue keep `unexplained` with nothing named.
+    outside the catalogue keep `unexplained` with nothing named. ``extra``: effect
+    names a calibration finding stands for (findings.py); each lead is also paired
+    with them (outside its family), beyond MAX_PAIRS: a value the calibration moved
+    beyond the description may be the second effect the lead is missing (G47).
     """
     by_name = calibratable(candidates)
     leads = sorted((f for f in fits if f.criterion > 0.0 and len(f.effects) == 1),
                    key=lambda f: f.criterion, reverse=True)[:PAIR_LEADS]
     rounds = [r for r in rounds if r is not None]
-    pairs, seen = [], set()
+    pairs, found, seen = [], [], set()
     for lead in leads:
         name = lead.effects[0]
         after = next((r for r in rounds if list(r.base_effects) == [name]),
@@ -243,7 +246,13 @@ def pair_order(rounds, candidates, fits):
             if frozenset((name, other)) not in seen:
                 seen.add(frozenset((name, other)))
                 pairs.append((by_name[name], by_name[other]))
-    return pairs[:MAX_PAIRS]
+        found += [(name, other) for other in extra
+                  if other in by_name and by_name[other].starts and other not in rivals]
+    pairs = pairs[:MAX_PAIRS]
+    for name, other in found:
+        if frozenset((name, other)) not in {frozenset(c.name for c in p) for p in pairs}:
+            pairs.append((by_name[name], by_name[other]))
+    return pairs
 
 
 def training_misfit(report, reference):
@@ -287,7 +296,7 @@ def joint_extension(calibrate_with, problems, nominals, cal, candidates, rounds,
     joint, rivals = best_joint(fits, problems, nominals, nominal_rmse)
     if joint is None:  # one effect helps but leaves structure: it and a partner
         fits = joint_calibrations(calibrate_with, problems, nominals, cal, candidates,
-                                  pair_order(rounds, candidates, fits))
+                                  pair_order(rounds, candidates, fits, extra))
         joint, rivals = best_joint(fits, problems, nominals, nominal_rmse)
     return joint, rivals, unresolved_rivals(
         joint, fits, lambda f: lowers_heldout_rms(problems, f.sims, nominal_rmse))
