@@ -222,6 +222,12 @@ def test_pairs_start_from_single_joint_fits_that_help_and_take_partners_outside_
     assert pairs == [('dead_time', 'ambient_offset'), ('dead_time', 'creep'),
                      ('sensor_lag', 'friction'), ('sensor_lag', 'ambient_offset')]
     assert len(pairs) <= MAX_PAIRS
+    # the effects a calibration finding stands for partner each lead too, beyond the cap,
+    # but never within the lead's family and never twice (G47)
+    found = [tuple(c.name for c in p) for p in pair_order(
+        [first, second], candidates, fits, extra=('modulus_softening', 'creep', 'dead_time'))]
+    assert found == pairs + [('dead_time', 'modulus_softening'),
+                             ('sensor_lag', 'modulus_softening'), ('sensor_lag', 'creep')]
     assert pair_order([first, second], candidates, [fit('dead_time', -1.0)]) == []
     assert pair_order([], candidates, fits) == []
     pair = JointFit(name='dead_time + ambient_offset', values={}, n_params=2, sims=[],
