@@ -249,10 +249,8 @@ def pair_order(rounds, candidates, fits, extra=()):
         found += [(name, other) for other in extra
                   if other in by_name and by_name[other].starts and other not in rivals]
     pairs = pairs[:MAX_PAIRS]
-    for name, other in found:
-        if frozenset((name, other)) not in {frozenset(c.name for c in p) for p in pairs}:
-            pairs.append((by_name[name], by_name[other]))
-    return pairs
+    kept = {frozenset(c.name for c in pair) for pair in pairs}
+    return pairs + [(by_name[a], by_name[b]) for a, b in found if frozenset((a, b)) not in kept]
 
 
 def training_misfit(report, reference):

@@ -260,7 +260,8 @@ def simulate_quasistatic(params, time, power, load=None, model=None, kinetostati
 
     Same inputs and SimulationResult as ``simulation.simulate`` (``substeps`` 0).
     The displacement reference is the loaded equilibrium at ambient under
-    ``load[0]``; ``supply`` as in QuasiStaticPlant.simulate.
+    ``load[0]`` (with friction under ``load[0]`` + s F_s, where the end starts:
+    effects.friction_start_load); ``supply`` as in QuasiStaticPlant.simulate.
     """
     plant = QuasiStaticPlant(params, model=model, kinetostatics=kinetostatics)
     return plant.simulate(time, power, load, supply=supply)
