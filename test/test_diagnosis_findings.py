@@ -117,3 +117,21 @@ def test_a_finding_effect_is_not_found_beside_structure_without_a_decisive_margi
     # nor below the margin alone
     assert found_despite_structure(calibrate_with, [], None,
                                    [_finding_test('power_loss', 9.5)]) is None
+
+
+def test_a_sensor_lag_the_heat_capacity_took_up_without_a_thermometer_is_found(tmp_path):
+    # seed 9126 of the confusion benchmark (a 240 s record at 5 Hz, cst plant, power
+    # logged as the command, no thermometer) hides a sensor lag and a hysteresis: the
+    # exact description's calibration moves the heat capacity +2.7 spreads, which a
+    # sensor lag explains as well as a second thermal lag (decisions G48). Before, only
+    # the thermal lags were tested and the second thermal lag was named alone
+    from tca_ros.synthetic.descriptions import TIGHTNESS
+    record, start = realistic_case(9126, ['sensor_lag', 'hysteresis'], str(tmp_path))
+    truth = load_params(truth_path(str(tmp_path), 9126))
+    description = str(tmp_path / 'exact.yaml')
+    dump_params(describe(truth, load_params(start), 'exact',
+                         np.random.default_rng([9126, TIGHTNESS.index('exact')])), description)
+    result = diagnose(record, description, progress=False)
+    assert [n for n, z, _ in result.calibration.findings()] == ['heat_capacity']
+    assert result.effects == ['sensor_lag']
+    assert any('sensor_lag and second_thermal_lag are rivals' in n for n in result.notes)
