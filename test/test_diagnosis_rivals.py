@@ -138,3 +138,35 @@ def test_a_joint_fit_is_confirmed_only_by_a_clean_whole_record_calibration(monke
     assert confirm_on_whole(failing, [problem], cal, ['heat_loss'], training) is None
     assert confirm_on_whole(lambda *a: (None, None, 'skipped'), [problem], cal, [],
                             training) is None
+
+
+def _pair(first, second, criterion):
+    return JointFit(name=f'{first} + {second}', values={}, n_params=2, sims=[first, second],
+                    criterion=criterion, explained=True, pinned=[], effects=(first, second))
+
+
+def test_a_named_pair_has_its_rivals_with_one_member_swapped(monkeypatch):
+    # a pair the search named (here creep + a second thermal lag): the pairs with the
+    # lag swapped for each of its rivals are calibrated (creep, without a family, is
+    # never swapped; G49); one as good is said beside it, one decisively better
+    # replaces it. Seed 9125 at one record: softening + second thermal lag named,
+    # softening + sensor lag (the truth) now said beside it
+    found = ('creep', 'second_thermal_lag')
+    asked = []
+
+    def fake_calibrations(calibrate_with, problems, nominals, cal, candidates, groups):
+        asked.extend(tuple(c.name for c in group) for group in groups)
+        return fits
+
+    monkeypatch.setattr(joint, 'joint_calibrations', fake_calibrations)
+    monkeypatch.setattr(joint, 'lowers_heldout_rms', lambda problems, sims, rmse: True)
+    fits = [_pair(*found, 426.7), _pair('creep', 'sensor_lag', 423.4),
+            _pair('creep', 'dead_time', 120.0)]
+    taken, notes = family_rivals(None, [], [], None, CANDIDATES, found, {})
+    assert asked == [found, ('creep', 'sensor_lag'), ('creep', 'dead_time')]
+    assert taken is None
+    assert notes[0].startswith('creep + second_thermal_lag is named by the search; also')
+    assert 'creep + sensor_lag (penalised held-out gain 423.4)' in notes[0]
+    fits = [_pair(*found, 426.7), _pair('creep', 'sensor_lag', 426.7 + DECISIVE_DEVIANCE + 1)]
+    taken, notes = family_rivals(None, [], [], None, CANDIDATES, found, {})
+    assert taken is fits[1] and 'creep + sensor_lag is named' in notes[0]

@@ -100,7 +100,7 @@ def second_opinions(nominal, calibrate_with, effects, values, extendeds, rounds,
     model leaves adequate while its calibration moved values beyond the description
     gets those effects tested as the finding's cause (findings.py); an explanation
     with a parameter at the end of its range is not one; a single effect of a
-    family gets its rivals said (joint.family_rivals).
+    family, or a pair, gets its rivals said (joint.family_rivals).
     """
     judgement = nominal.judged(effects, values, extendeds)
     cal, joint, found = nominal.cal, None, False
@@ -154,11 +154,12 @@ def second_opinions(nominal, calibrate_with, effects, values, extendeds, rounds,
                        + ' sits at the end of its physical range: the data ask for more '
                        'than the effect can be, so it stands in for a cause that is not in '
                        'the catalogue and is not named')
-    if verdict == 'explained' and joint is None and len(effects) == 1 and cal is not None:
-        # one effect of a family the records may not tell apart: its rivals calibrated
-        # jointly; one decisively better replaces it, the others are said
+    if verdict == 'explained' and joint is None and len(effects) in (1, 2) and cal is not None:
+        # effects of families the records may not tell apart: the rivals (one member
+        # swapped for each of its rivals) calibrated jointly; one decisively better
+        # replaces them, the others are said
         taken, said = family_rivals(calibrate_with, nominal.problems, nominal.sims, cal,
-                                    nominal.candidates, effects[0],
+                                    nominal.candidates, tuple(effects),
                                     nominal.drift_free_rmse)
         notes.extend(said)
         if taken is not None:

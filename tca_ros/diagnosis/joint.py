@@ -314,14 +314,18 @@ def family_rivals(calibrate_with, problems, nominals, cal, candidates, found, no
     DECISIVE_DEVIANCE: the search refits the nominal parameters narrowly, so its
     pick can be the lag that the shifted damping let in, not the one the records ask
     for (a 0.22 s sensor lag at 2 Hz was named dead time, gains 766 against 266).
+    ``found``: the effect's name, or the names of a pair the search named; a pair's
+    rivals are the pairs with one member swapped for one of its rivals (G49).
     """
     by_name = {n: c for n, c in calibratable(candidates).items() if c.starts}
-    family = rivals_of(found)
-    rivals = [by_name[n] for n in by_name if n in family]
-    if not rivals or found not in by_name:
+    named = (found,) if isinstance(found, str) else tuple(found)
+    swaps = [named[:i] + (rival,) + named[i + 1:] for i, effect in enumerate(named)
+             for rival in by_name if rival in rivals_of(effect) and rival not in named]
+    if not swaps or any(n not in by_name for n in named):
         return None, []
     fits = joint_calibrations(calibrate_with, problems, nominals, cal, candidates,
-                              [(by_name[found],)] + [(c,) for c in rivals])
+                              [tuple(by_name[n] for n in group) for group in [named] + swaps])
+    found = ' + '.join(named)
     own = next((f for f in fits if f.name == found), None)
     passing = sorted((f for f in fits if f.name != found and f.explained and not f.pinned
                       and f.criterion > 0.0

@@ -43,7 +43,8 @@ def rivals_of(name):
 def unresolved_rivals(named, fits, lowers_rms):
     """Return the rivals of JointFit ``named`` that only the structure test sets apart.
 
-    Single-effect JointFits of its rivals (rivals_of) that pass every rule of
+    The JointFits of its rivals (:func:`swapped_rival`: one effect swapped for a rival of
+    it, in a single or a pair) that pass every rule of
     joint.best_joint but the structure test (no parameter at a bound, a positive
     penalised held-out gain, ``lowers_rms(fit)`` True: the search's RMS rule), with a
     gain not decisively below the named fit's (within DECISIVE_DEVIANCE, or above
@@ -53,13 +54,24 @@ def unresolved_rivals(named, fits, lowers_rms):
     thermometer: the sensor lag's whole-record fit left 0.94 x the floor, the second
     lag's 1.05 x, penalised held-out gains 539.0 and 540.4).
     """
-    if named is None or len(named.effects) != 1:
+    if named is None:
         return []
-    family = rivals_of(named.effects[0])
-    near = [f for f in fits if len(f.effects) == 1 and f.effects[0] in family
+    near = [f for f in fits if swapped_rival(named.effects, f.effects)
             and not f.explained and not f.pinned and f.criterion > 0.0
             and f.criterion >= named.criterion - DECISIVE_DEVIANCE and lowers_rms(f)]
     return sorted(near, key=lambda f: -f.criterion)
+
+
+def swapped_rival(named, other):
+    """Return True when effects ``other`` are ``named`` with one member swapped for a rival.
+
+    Both are tuples of effect names: one effect and a rival of it (rivals_of), or a
+    pair with one member replaced by one of that member's rivals.
+    """
+    if len(other) != len(named):
+        return False
+    changed = [(a, b) for a, b in zip(named, other) if a != b]
+    return len(changed) == 1 and changed[0][1] in rivals_of(changed[0][0])
 
 
 def unresolved_note(named, near):
