@@ -83,24 +83,28 @@ def checked_dt(dt):
     return float(dt)
 
 
-def check_start_state(load, temp, elongation, tension, reference, contact):
+def check_start_state(load, temp, elongation, tension, reference, contact, held=None):
     """Raise ValueError unless (elongation, tension) is a finite static state.
 
     ``load`` (N) at ``temp`` (degC); ``elongation``, the ``reference`` elongation
     at ambient and the ``contact`` elongation in m, ``tension`` f_rod (N) there.
+    ``held`` (N, default ``load``): the rod tension at the start, the load plus the
+    friction that holds the end (effects.friction_start_load).
     A load the coil cannot hold (it straightens) or a model that is not finite
     there would otherwise surface as a division by zero in the first steps.
     """
+    held = load if held is None else held
+    where = '' if held == load else f' (the rod held under {held:.4g} N by friction)'
     values = (elongation, tension, reference)
     if not all(math.isfinite(v) for v in values):
         raise ValueError(
-            f'dynamics.load = {load:g} N: no finite static equilibrium at {temp:g} degC '
-            f'(elongation {elongation:g} m, tension {tension:g} N)')
+            f'dynamics.load = {load:g} N{where}: no finite static equilibrium at {temp:g} '
+            f'degC (elongation {elongation:g} m, tension {tension:g} N)')
     in_contact = elongation <= contact
-    if not in_contact and abs(tension - load) > EQUILIBRIUM_TOLERANCE * max(load, 1e-3):
+    if not in_contact and abs(tension - held) > EQUILIBRIUM_TOLERANCE * max(held, 1e-3):
         raise ValueError(
-            f'dynamics.load = {load:g} N: beyond the range of the coil at {temp:g} degC '
-            f'(it straightens; the model holds {tension:.3g} N there)')
+            f'dynamics.load = {load:g} N{where}: beyond the range of the coil at {temp:g} '
+            f'degC (it straightens; the model holds {tension:.3g} N there)')
 
 
 class TcaSimulator:
@@ -163,8 +167,8 @@ class TcaSimulator:
                               fiber_temperature=temp,
                               elongation=q, previous_elongation=q, load=load)
         self.state.tension = self.kinetostatics.tension(q, temp)
-        check_start_state(held, temp, q, self.state.tension, self.reference_elongation,
-                          self._contact)
+        check_start_state(load, temp, q, self.state.tension, self.reference_elongation,
+                          self._contact, held)
         self._update_outputs(self.state, 0.0)
         self.state.measured_displacement = self.state.displacement
         self._step_length = None  # at rest: q_{i-1} = q_i holds for any step
