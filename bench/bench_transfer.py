@@ -24,6 +24,7 @@ import time
 import numpy as np
 
 from tca_ros.calibration.calibration import calibrate, DEFAULT_FIT
+from tca_ros.calibration.calibration_parameters import default_fit
 from tca_ros.calibration.lumped import fit_lumped, lumped_nrmse
 from tca_ros.calibration.posterior import calibrated_uncertainty, posterior_of
 from tca_ros.calibration.predictions import full_nrmse
@@ -53,13 +54,17 @@ MUSCLES = {
                                 mass=0.04),
 }
 #: variant -> (extra fitted physics, or None for calibrate's default fit; the physics
-#: calibrate adds by default; whether the description keeps the still-air heat-loss law
-#: that describe_muscle writes, effects.convection_exponent, or the paper's constant h)
+#: calibrate adds by default (True with an extra: the extra is added to the default fit);
+#: whether the description keeps the still-air heat-loss law that describe_muscle
+#: writes, effects.convection_exponent, or the paper's constant h)
 CURVE, LAG = 'expansion_zero_temperature', 'actuation_lag'
+PLATEAU = 'expansion_plateau_temperature'
 SIBLING_VARIANT = 'default, sibling thread'
 VARIANTS = {
     'default': (None, True, True),  # the lag; the curvature on 2+ power levels; h(dT)
     'default, constant h': (None, True, False),
+    # the default fit and T_p, where the curvature of eq. (2) stops (G50)
+    'default + plateau': ((PLATEAU,), True, True),
     'physical priors': ((), False, False),
     '+ h(dT)': ((), False, True),
     '+ curvature': ((CURVE,), False, False),
@@ -85,8 +90,13 @@ def held_out(records, params, model, variant):
         train = [r for c, rs in groups.items() if c != cond for r in rs]
         extra, physics, law = variant
         start = params if law else params.with_values(**{'effects.convection_exponent': 0.0})
-        cal = calibrate(train, start, model=model, check=False, physics=physics,
-                        fit=None if extra is None else list(DEFAULT_FIT) + list(extra))
+        if extra is None:
+            fit = None
+        elif physics is True:  # the default fit and more
+            fit = default_fit(train) + list(extra)
+        else:
+            fit = list(DEFAULT_FIT) + list(extra)
+        cal = calibrate(train, start, model=model, check=False, physics=physics, fit=fit)
         bad |= {row.name for row in cal.plausibility() if row.implausible}
         ours += full_nrmse(cal.params, groups[cond], cal.model)
         lumped += lumped_nrmse(fit_lumped(train).values, groups[cond])

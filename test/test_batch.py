@@ -90,12 +90,14 @@ def test_voltage_drive_agrees_with_the_node_rule(free_stroke):
 
 
 def test_cst_force_matches_the_scalar_model(free_stroke, self_coiled):
-    arrays = MuscleArrays([free_stroke, self_coiled])
-    for temp in (25.0, 90.0, 160.0):
+    # one muscle past its plateau temperature T_p of eq. (2) at 90 and 200 degC (G50)
+    plateau = free_stroke.with_values(**{'fiber.expansion_plateau_temperature': 70.0})
+    muscles = (free_stroke, self_coiled, plateau)
+    arrays = MuscleArrays(list(muscles))
+    for temp in (25.0, 90.0, 160.0, 200.0):
         for y, force in ((0.002, 0.3), (0.0005, 0.05)):
-            got = cst_tension(np.array([y, y]), np.array([temp, temp]),
-                              np.array([force, force]), arrays)
-            for k, p in enumerate((free_stroke, self_coiled)):
+            got = cst_tension(np.full(3, y), np.full(3, temp), np.full(3, force), arrays)
+            for k, p in enumerate(muscles):
                 want = make_kinetostatic_model(p, 'cst').tension(y, temp, force)
                 assert got[k] == pytest.approx(want, rel=1e-12)
 

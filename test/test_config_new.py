@@ -71,9 +71,14 @@ def test_free_stroke_from_maker_inputs_reproduces_the_shipped_config(tmp_path, f
     # Every value equals config/free_stroke.yaml to round-off except the contact angle
     # (the file's 12 deg is measured, Sec. V-D1; the tool's is the geometric estimate)
     # and the growth of the heat loss with the rise: the paper's eq. (1) keeps h
-    # constant, a description states still air's (decisions.md C7)
+    # constant, a description states still air's (decisions.md C7); and where the
+    # curvature of eq. (2) stops: the paper's model keeps its quadratic to the melt, a
+    # description holds dGamma/dT above the 160 degC its oven reached (G50)
     _assert_same_params(made, free_stroke,
-                        differ={'coil.min_pitch_angle_deg', 'effects.convection_exponent'})
+                        differ={'coil.min_pitch_angle_deg', 'effects.convection_exponent',
+                                'fiber.expansion_plateau_temperature'})
+    assert (free_stroke.fiber.expansion_plateau_temperature,
+            made.fiber.expansion_plateau_temperature) == (260.0, 160.0)
     assert free_stroke.effects.convection_exponent == 0.0
     assert made.effects.convection_exponent == pytest.approx(
         still_air_loss_exponent(2.0 * made.fiber.radius, made.thermal.ambient_temperature))
@@ -87,7 +92,8 @@ def test_a_measured_contact_angle_gives_the_shipped_config_but_its_loss_law(
         tmp_path, free_stroke):
     made, _ = new(tmp_path, FREE_STROKE,
                   extra=['--coil-diameter', '0.000816', '--min-pitch-angle', '12'])
-    _assert_same_params(made, free_stroke, differ={'effects.convection_exponent'})
+    _assert_same_params(made, free_stroke, differ={'effects.convection_exponent',
+                                                   'fiber.expansion_plateau_temperature'})
 
 
 def test_mandrel_diameter_gives_the_mean_coil_radius(tmp_path, free_stroke):

@@ -178,6 +178,7 @@ def test_cst_with_the_radius_of_eq_24_tracks_the_rod_model(free_stroke, mass):
 
 @pytest.mark.parametrize('variant', [{}, {'moduli.constant': True},
                                      {'fiber.heated_radius_in_section': False},
+                                     {'fiber.expansion_plateau_temperature': 60.0},
                                      {'effects.extra_softening': 1.5e7, 'fiber.untwist_gain': 0.7,
                                       'thermal.ambient_temperature_degc': 31.0}])
 def test_the_fused_cst_tension_equals_the_relations_bit_for_bit(free_stroke, variant):

@@ -248,3 +248,24 @@ def test_a_heat_loss_finding_stands_for_a_power_loss_with_or_without_tau():
     moved = stands_for('heat_loss', -2.3)
     assert set(moved) == {'radiation', 'nonlinear_convection', 'power_loss'}
     assert stands_for('heat_loss') == moved  # tau not calibrated: every reading
+
+
+def test_a_glass_transition_plateau_is_found_and_predicts_a_hotter_power():
+    # the plant's radial expansion coefficient stops growing at 70 degC (G50); the
+    # description keeps the paper's quadratic to 160 degC; trained at 0.3-0.7 W (to about
+    # 88 degC), predicting 1 W (111 degC)
+    start = describe_muscle(SALP, load_thread_presets()).params
+    truth = start.with_values(**{'fiber.expansion_plateau_temperature': 70.0})
+    rng = np.random.default_rng(11)
+    train = [bench_record(truth, w, 0.02, rng, drift=0.0) for w in (0.3, 0.5, 0.7)]
+    test = [bench_record(truth, 1.0, 0.02, rng, drift=0.0)]
+    fit = ['heat_capacity', 'heat_loss', 'actuation_gain', 'stiffness_scale', 'damping',
+           'expansion_zero_temperature', 'actuation_lag', 'expansion_plateau_temperature']
+    plateau = calibrate(train, start, model='cst', check=False, fit=fit)
+    quadratic = calibrate(train, start, model='cst', check=False)
+    found = plateau.report.estimates['expansion_plateau_temperature']
+    assert found.determined and abs(found.value - 70.0) <= max(2.0 * found.stderr, 5.0), found
+    ours = full_nrmse(plateau.params, test, 'cst')[0]
+    without = full_nrmse(quadratic.params, test, 'cst')[0]
+    assert ours < 0.5 * without, (ours, without)
+    assert not [r.name for r in plateau.plausibility() if r.implausible]

@@ -39,6 +39,31 @@ def test_gamma_polynomial_and_untwist(free_stroke):
     assert r_hot == pytest.approx(0.21e-3 * 1.07918, rel=1e-5)
 
 
+def test_the_expansion_coefficient_holds_above_the_plateau_temperature(free_stroke):
+    """Eq. (2) with T_p (G50): the quadratic up to T_p, then Gamma linear with its slope there."""
+    c2, c1, c0 = free_stroke.fiber.gamma_coefficients
+    f = free_stroke.with_values(**{'fiber.expansion_plateau_temperature': 90.0}).fiber
+    quadratic = (c2 * 80.0 + c1) * 80.0 + c0
+    assert fiber.radius_ratio(80.0, f) == quadratic
+    at_top = (c2 * 90.0 + c1) * 90.0 + c0
+    slope = 2.0 * c2 * 90.0 + c1  # alpha_perp at T_p, 1/K
+    for temp in (100.0, 150.0, 250.0):
+        assert fiber.radius_ratio(temp, f) == pytest.approx(at_top + slope * (temp - 90.0),
+                                                            rel=1e-15)
+    # value and slope continuous at T_p; the slope no longer grows above it
+    h = 1e-4
+    assert fiber.radius_ratio(90.0 + h, f) - fiber.radius_ratio(90.0 - h, f) == \
+        pytest.approx(2.0 * h * slope, rel=1e-6)
+    assert fiber.radius_ratio(200.0, f) < (c2 * 200.0 + c1) * 200.0 + c0
+    # arrays and scalars agree on both sides
+    temps = np.array([25.0, 89.0, 91.0, 200.0])
+    np.testing.assert_array_equal(fiber.radius_ratio(temps, f),
+                                  [fiber.radius_ratio(t, f) for t in temps])
+    # at the melt the paper's quadratic holds over the model's whole range
+    paper = free_stroke.with_values(**{'fiber.expansion_plateau_temperature': 260.0}).fiber
+    assert fiber.radius_ratio(250.0, paper) == (c2 * 250.0 + c1) * 250.0 + c0
+
+
 def test_yarn_moduli_as_printed_and_scaled(free_stroke):
     a_t = math.radians(40.0)
     assert moduli.youngs_modulus_yarn(3.9e9, 0.35, a_t) == pytest.approx(0.6904e9, rel=1e-3)

@@ -52,7 +52,8 @@ import numpy as np
 from tca_ros.calibration import engine
 from tca_ros.calibration.calibration_parameters import apply_calibration, calibration_priors, \
     coil_stiffness, damping_bound, DEFAULT_FIT, default_fit, EFFECT_PARAMETERS, \
-    effect_priors, MAX_DAMPING_RATIO, OPTIONAL_FIT, PHYSICS_FIT, physics_names  # noqa: F401
+    effect_priors, MAX_DAMPING_RATIO, OPTIONAL_FIT, PHYSICS_FIT, physics_names, \
+    plateau_start  # noqa: F401
 from tca_ros.calibration.conditions import environment_priors, environment_scales, \
     held_strength, is_isometric, measured, with_tension
 from tca_ros.calibration.predictions import defect_corrections, full_predictions, \
@@ -321,8 +322,11 @@ def calibrate(records, params, model=None, fit=None, progress=False, max_nfev=No
     options = dict(initial_scale=initial, max_nfev=max_nfev, progress=bar,
                    scale_floor={'displacement': DISPLACEMENT_SCALE_FLOOR,
                                 'force': FORCE_SCALE_FLOOR})
+    start_values = dict(start_values or {})
+    if 'expansion_plateau_temperature' in names:
+        start_values.setdefault('expansion_plateau_temperature', plateau_start(start, records))
     first = {p.name: min(max(start_values[p.name], p.low), p.high) for p in parameters
-             if p.name in (start_values or {})}
+             if p.name in start_values}
     report = engine.fit(objective, parameters, start=first, **options)
     if like is None:
         # defect correction: refit with the full dynamics' difference at the estimate

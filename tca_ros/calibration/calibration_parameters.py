@@ -14,6 +14,7 @@ from tca_ros.calibration.physical_priors import ACTUATION_LAG_PRIOR, prior_sprea
 from tca_ros.model.effects import CATALOGUE
 from tca_ros.model.end_motion import critical_damping
 from tca_ros.model.kinetostatics import static_elongation
+from tca_ros.model.limits import MELT_TEMPERATURE_DEGC
 from tca_ros.model.static_maps import make_statics
 from tca_ros.model.thermal import fiber_mass, heat_capacity, surface_area, \
     thermal_conductance
@@ -31,7 +32,10 @@ INITIAL_RISE_SPREAD = 30.0
 INITIAL_RISE_MAX = 300.0  # K, the schema's bound of thermal.initial_temperature_rise
 #: fitted when named in ``fit``: friction (a diagnosis effect else); the initial rise also
 #: by default on one record whose logged temperature shows it beginning warm (starts_warm)
-OPTIONAL_FIT = ('friction_force', 'initial_temperature_rise') + PHYSICS_FIT
+#: and the top of the characteristic's curvature, T_p (no held-out gain on the shared muscles:
+#: their records leave it at its prior, docs/decisions.md G50)
+OPTIONAL_FIT = ('friction_force', 'initial_temperature_rise',
+                'expansion_plateau_temperature') + PHYSICS_FIT
 #: catalogue effect parameters a calibration fits when named in ``fit`` (dotted names)
 EFFECT_PARAMETERS = tuple(n for names in CATALOGUE.values() for n in names
                           if n.startswith('effects.'))
@@ -93,6 +97,12 @@ def calibration_priors(params, nominal_power, has_resistance, r0_measured=None,
                          spread['expansion_zero_temperature'], log=False,
                          description='where dGamma/dT of eq. (2) vanishes: the curvature '
                                      'of the stroke-temperature characteristic'),
+        engine.Parameter('expansion_plateau_temperature', 'degC',
+                         params.fiber.expansion_plateau_temperature,
+                         params.thermal.ambient_temperature + 10.0, MELT_TEMPERATURE_DEGC,
+                         spread['expansion_plateau_temperature'], log=False,
+                         description='above it dGamma/dT of eq. (2) holds: the top of the '
+                                     "thread's glass transition (G50)"),
         engine.Parameter('actuation_lag', 's',
                          max(params.effects.second_thermal_lag, ACTUATION_LAG_PRIOR), 0.0,
                          120.0, spread['actuation_lag'], log=False,
@@ -177,6 +187,8 @@ def apply_calibration(params, values):
             c2, -2.0 * c2 * values['expansion_zero_temperature'], c0]
     if 'actuation_lag' in values:
         flat['effects.second_thermal_lag'] = values['actuation_lag']
+    if 'expansion_plateau_temperature' in values:
+        flat['fiber.expansion_plateau_temperature'] = values['expansion_plateau_temperature']
     simple = {'actuation_gain': 'fiber.untwist_gain', 'damping': 'dynamics.damping',
               'friction_force': 'effects.friction_force',
               'delivered_power_ratio': 'thermal.delivered_power_ratio',
@@ -223,6 +235,20 @@ def expansion_zero(fiber):
     """
     c2, c1, _ = fiber.gamma_coefficients
     return -c1 / (2.0 * c2) if c2 > 0.0 else -200.0
+
+
+def plateau_start(params, records):
+    """Return where a fit of T_p (expansion_plateau_temperature, degC) starts.
+
+    Halfway from ambient to the start's steady temperature at the records' largest
+    power, or the description's T_p if lower. Above every temperature the records
+    reach, T_p changes no prediction (G50): a fit started there could not leave it.
+    """
+    top = max(float(np.max(r.power)) for r in records)  # W
+    rise = top * params.thermal.delivered_power_ratio / thermal_conductance(
+        params.fiber, params.thermal)  # K
+    return min(params.thermal.ambient_temperature + 0.5 * rise,
+               params.fiber.expansion_plateau_temperature)
 
 
 def physics_names(physics):

@@ -17,7 +17,7 @@ from tca_ros.model.heat_transfer import natural_convection_coefficient, radiatio
 from tca_ros.model.thermal import heat_capacity, surface_area
 
 #: parameters whose uncertainty is in their unit (the rest relative: x/÷ (1 + u))
-LINEAR = ('expansion_zero_temperature', 'actuation_lag')
+LINEAR = ('expansion_zero_temperature', 'actuation_lag', 'expansion_plateau_temperature')
 #: the actuation lag's prior centre (s): about none (0 is its bound, where a fit could
 #: not start)
 ACTUATION_LAG_PRIOR = 0.5
@@ -33,6 +33,8 @@ PLAUSIBLE_RATIO = {
 PLAUSIBLE_RANGE = {
     'expansion_zero_temperature': (-60.0, None),  # degC: a nearly linear Gamma(T) below it
     'actuation_lag': (None, 60.0),  # s
+    # degC: the top of nylon 6,6's glass transition lies above it, dry or wet (G50)
+    'expansion_plateau_temperature': (40.0, None),
 }
 #: |z| beyond which a value has left what the description stated: a finding to explain
 SHIFT_Z = 2.0
@@ -149,6 +151,7 @@ STANDS_FOR = {
     'damping': ('second_thermal_lag', 'sensor_lag', 'friction', 'hysteresis'),
     'actuation_lag': ('second_thermal_lag', 'sensor_lag', 'dead_time'),
     'expansion_zero_temperature': ('modulus_softening', 'hysteresis'),
+    'expansion_plateau_temperature': ('modulus_softening', 'hysteresis'),
 }
 TAU_STEADY_Z = 1.0  # |z| of the time constant below which it counts as unchanged
 

@@ -48,7 +48,8 @@ REQUIRED = ('names', 'log', 'mean', 'cov', 'low', 'high', 'base', 'channels')
 #: C9): relative for the log parameters, K for T_z, s for the lag. A posterior standard
 #: deviation counts only the records' noise; the same muscle logged again on another day
 #: (another clamp, humidity, history) differs by more.
-CALIBRATED_FLOOR = {'relative': 0.1, 'expansion_zero_temperature': 2.0, 'actuation_lag': 0.5}
+CALIBRATED_FLOOR = {'relative': 0.1, 'expansion_zero_temperature': 2.0, 'actuation_lag': 0.5,
+                    'expansion_plateau_temperature': 5.0}
 
 
 class PosteriorError(ValueError):

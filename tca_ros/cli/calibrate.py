@@ -35,7 +35,9 @@ def add_parser(subparsers):
                     help='comma-separated calibration parameters to fit (default: '
                          + ', '.join(DEFAULT_FIT) + ', and initial_temperature_rise on one '
                          'record whose logged temperature falls before any power); also '
-                         'friction_force, initial_temperature_rise or a catalogue effect '
+                         'friction_force, initial_temperature_rise, '
+                         'expansion_plateau_temperature (degC, where the stroke-temperature '
+                         'curvature stops) or a catalogue effect '
                          'parameter (e.g. effects.creep_compliance), fitted with the '
                          'nominal ones')
     sp.add_argument('--model', choices=MODELS, default=None,

@@ -73,6 +73,7 @@ def calibrated_values(params, reference):
         'delivered_power_ratio': (params.thermal.delivered_power_ratio, '-'),
         'actuation_lag': (params.effects.second_thermal_lag, 's'),
         'expansion_zero_temperature': (expansion_zero(params.fiber), 'degC'),
+        'expansion_plateau_temperature': (params.fiber.expansion_plateau_temperature, 'degC'),
     }
     return {k: (float(v), unit) for k, (v, unit) in out.items()}
 

@@ -5,12 +5,23 @@ Convention (docs/decisions.md, D1): Gamma(T) = c2 T^2 + c1 T + c0 with
 to Gamma(T0) so that the untwist is zero at the ambient temperature and negative
 when hot (the fiber untwists, the right-handed coil contracts).
 """
+import numpy as np
 
 
 def radius_ratio(temp, fiber):
-    """Return Gamma(T) = r_t^h / r_t^* (-), the polynomial fit of Eq. (2); T in degC."""
+    """Return Gamma(T) = r_t^h / r_t^* (-), the polynomial fit of Eq. (2); T in degC.
+
+    Up to ``fiber.expansion_plateau_temperature`` T_p (degC) the paper's quadratic;
+    above it the radial expansion coefficient alpha_perp = dGamma/dT of eq. (2) holds
+    its value at T_p, so Gamma goes on linearly (nylon's rubbery plateau past its
+    glass transition, docs/decisions.md G50). T_p at the melt: the paper's law.
+    """
     c2, c1, c0 = fiber.gamma_coefficients
-    return (c2 * temp + c1) * temp + c0
+    top = fiber.expansion_plateau_temperature
+    if np.ndim(temp) == 0 and temp <= top:
+        return (c2 * temp + c1) * temp + c0
+    t = np.minimum(temp, top)
+    return (c2 * t + c1) * t + c0 + (2.0 * c2 * t + c1) * (temp - t)
 
 
 def heated_fiber_radius(temp, fiber, ambient):

@@ -22,7 +22,7 @@ import math
 
 import numpy as np
 
-from tca_ros.model.fiber import unit_untwist
+from tca_ros.model.fiber import radius_ratio, unit_untwist
 from tca_ros.model.limits import check_thread_strength, touching_pitch_angle
 from tca_ros.model.moduli import section_stiffness
 
@@ -266,7 +266,9 @@ def cst_tension_function(params, natural):
     length, twist_gain = fiber.length, fiber.untwist_gain * fiber.inserted_twist
     ambient = params.thermal.ambient_temperature
     c2, c1, c0 = fiber.gamma_coefficients
-    gamma_ambient = (c2 * ambient + c1) * ambient + c0
+    gamma_ambient = radius_ratio(ambient, fiber)
+    top = fiber.expansion_plateau_temperature  # degC, the rubbery plateau of (2)
+    gamma_top, slope_top = (c2 * top + c1) * top + c0, 2.0 * c2 * top + c1
     cos_star, r_star, r_fiber = math.cos(coil.pitch_angle), coil.radius, fiber.radius
     constant = moduli.constant
     heated = fiber.heated_radius_in_section and not constant
@@ -280,7 +282,8 @@ def cst_tension_function(params, natural):
 
     def tension(elongation, temperature, force):
         alpha = math.asin(min(max((natural + elongation) / length, -1.0), 1.0))  # (26)
-        gamma = (c2 * temperature + c1) * temperature + c0  # (2)
+        gamma = ((c2 * temperature + c1) * temperature + c0 if temperature <= top
+                 else gamma_top + slope_top * (temperature - top))  # (2)
         if constant:
             e, g = e0, g0
         else:  # (11)

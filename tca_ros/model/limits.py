@@ -67,7 +67,8 @@ def _radius_ratio_extremes(fiber, low, high):
     """Return the temperatures (degC) of the smallest and largest Gamma on [low, high]."""
     c2, c1, _ = fiber.gamma_coefficients
     candidates = [low, high]
-    if c2 != 0.0 and low < -c1 / (2.0 * c2) < high:  # vertex of the parabola, eq. (4)
+    top = min(high, fiber.expansion_plateau_temperature)  # linear above T_p (G50)
+    if c2 != 0.0 and low < -c1 / (2.0 * c2) < top:  # vertex of the parabola, eq. (4)
         candidates.append(-c1 / (2.0 * c2))
     ordered = sorted(candidates, key=lambda t: radius_ratio(t, fiber))
     return ordered[0], ordered[-1]

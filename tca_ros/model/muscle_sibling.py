@@ -19,6 +19,7 @@ from tca_ros.model.tca_params import to_flat_dict
 MATERIAL_FITTED = {
     'fiber.specific_heat': 'heat_capacity',
     'fiber.gamma_coefficients': 'expansion_zero_temperature',
+    'fiber.expansion_plateau_temperature': 'expansion_plateau_temperature',
     'thermal.convection_coefficient': 'heat_loss',
     'thermal.surface_factor': 'heat_loss',
     'moduli.youngs_modulus': 'stiffness_scale',
@@ -31,7 +32,8 @@ PROCESS_FITTED = {
 }
 #: how much two muscles of one make differ at least (relative; K for T_z; s for the
 #: lag): the shared records' repeats at one power differ by tens of percent
-SIBLING_FLOOR = {'relative': 0.25, 'expansion_zero_temperature': 5.0, 'actuation_lag': 2.0}
+SIBLING_FLOOR = {'relative': 0.25, 'expansion_zero_temperature': 5.0, 'actuation_lag': 2.0,
+                 'expansion_plateau_temperature': 10.0}
 RADIUS_MISMATCH = 0.2  # relative difference of thread radii that earns a warning
 
 

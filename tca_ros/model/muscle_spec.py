@@ -15,7 +15,8 @@ COIL_TYPES = ('self_coiled', 'mandrel', 'conical')
 #: Schema names a thread preset may set: the material, not the muscle.
 MATERIAL_PARAMETERS = frozenset((
     'fiber.bias_angle_deg', 'fiber.volume_fraction', 'fiber.density',
-    'fiber.specific_heat', 'fiber.gamma_coefficients', 'thermal.convection_coefficient',
+    'fiber.specific_heat', 'fiber.gamma_coefficients', 'fiber.expansion_plateau_temperature',
+    'thermal.convection_coefficient',
     'thermal.surface_factor', 'moduli.youngs_modulus', 'moduli.shear_modulus',
     'moduli.fiber_modulus', 'moduli.fiber_softening', 'moduli.load_coefficients',
     'moduli.max_torsion_strain', 'moduli.fiber_modulus_floor',

@@ -66,6 +66,10 @@ SCHEMA = (
     _p('fiber.specific_heat', 1267.0, 'J/(kg K)', 'Specific heat c_p.', 10.0, 1e4),
     _p('fiber.gamma_coefficients', [3.54e-6, -6.705e-5, 1.0017], '1/degC^2, 1/degC, -',
        'Radius ratio Gamma(T) = c2 T^2 + c1 T + c0 (T in degC), [c2, c1, c0].', length=3),
+    _p('fiber.expansion_plateau_temperature', 260.0, 'degC',
+       'T_p: above it dGamma/dT of eq. (2) holds its value (Gamma linear in T); 260 (the '
+       "melt): the paper's quadratic throughout; the thread presets: 160, its oven's top.",
+       -60.0, 260.0),
     _p('fiber.untwist_gain', 1.0, '-',
        "Actuation gain: multiplies the untwist of eq. (4) (1 = the paper's law; "
        "calibrated for a user's muscle).", 0.01, 20.0),
@@ -207,6 +211,9 @@ SCHEMA = (
        1e-3, 200.0),
     _p('uncertainty.actuation_lag', 5.0, 's',
        'Uncertainty of the lag of the actuating temperature.', 1e-3, 600.0),
+    _p('uncertainty.expansion_plateau_temperature', 40.0, 'K',
+       'Uncertainty of T_p, above which dGamma/dT of eq. (2) holds (the rubbery plateau).',
+       1e-3, 400.0),
 )
 
 SPECS = {s.name: s for s in SCHEMA}

@@ -31,6 +31,7 @@ class FiberParams:
     untwist_gain: float
     heated_radius_in_section: bool
     break_force: float
+    expansion_plateau_temperature: float = 260.0  # degC: dGamma/dT held above it (G50)
 
 
 @dataclass(frozen=True)
@@ -141,7 +142,8 @@ class UncertaintyParams:
     """How well the description knows each calibrated quantity: the calibration's prior.
 
     Relative uncertainties (-: the prior is x/÷ (1 + u)) except
-    ``expansion_zero_temperature`` (K) and ``actuation_lag`` (s).
+    ``expansion_zero_temperature`` and ``expansion_plateau_temperature`` (K) and
+    ``actuation_lag`` (s).
     """
 
     heat_capacity: float = 0.3
@@ -152,6 +154,7 @@ class UncertaintyParams:
     delivered_power_ratio: float = 0.25
     expansion_zero_temperature: float = 20.0
     actuation_lag: float = 5.0
+    expansion_plateau_temperature: float = 40.0
 
 
 @dataclass(frozen=True)

@@ -34,6 +34,7 @@ class MuscleArrays:
         self.cos_pitch = gather(lambda p: math.cos(p.coil.pitch_angle))  # cos alpha*
         self.ambient = gather(lambda p: p.thermal.ambient_temperature)  # T0, degC
         self.gamma = [gather(lambda p, i=i: p.fiber.gamma_coefficients[i]) for i in range(3)]
+        self.plateau = gather(lambda p: p.fiber.expansion_plateau_temperature)  # T_p, degC
         self.twist = gather(lambda p: p.fiber.untwist_gain * p.fiber.inserted_twist)  # rad/m
         m = [p.moduli for p in params_list]
         self.constant = np.array([x.constant for x in m])
@@ -52,9 +53,10 @@ class MuscleArrays:
 
 
 def radius_ratio(temp, c):
-    """Return Gamma(T) (-) of Eq. (2) per muscle; T in degC."""
+    """Return Gamma(T) (-) of Eq. (2) per muscle; T in degC, linear above T_p (G50)."""
     c2, c1, c0 = c.gamma
-    return (c2 * temp + c1) * temp + c0
+    t = np.minimum(temp, c.plateau)
+    return (c2 * t + c1) * t + c0 + (2.0 * c2 * t + c1) * (temp - t)
 
 
 def unit_untwist(temp, c):
