@@ -151,7 +151,8 @@ STANDS_FOR = {
     'damping': ('second_thermal_lag', 'sensor_lag', 'friction', 'hysteresis'),
     'actuation_lag': ('second_thermal_lag', 'sensor_lag', 'dead_time'),
     'expansion_zero_temperature': ('modulus_softening', 'hysteresis'),
-    'expansion_plateau_temperature': ('modulus_softening', 'hysteresis'),
+    # a stroke that stops growing when hot: the coil softening under its load
+    'expansion_plateau_temperature': ('modulus_softening',),
 }
 TAU_STEADY_Z = 1.0  # |z| of the time constant below which it counts as unchanged
 
