@@ -129,6 +129,41 @@ def test_an_air_flow_is_a_condition_with_its_own_heat_loss_scale():
                                                            rel=0.25)
 
 
+def test_a_diagnosis_against_a_still_air_calibration_says_a_fan_is_more_heat_loss(tmp_path):
+    # calibrated on three still-air steps; two steps under a fan taking 2.8x the heat away
+    # (no environment in their header) are diagnosed against that file: the refit lowers
+    # the steady rise and the time constant together, and a note says what that is; the
+    # still-air records diagnosed the same way get no such note
+    from tca_ros.calibration.calibration import calibrate
+    from tca_ros.diagnosis import diagnose
+    start = describe_muscle(SPEC, load_thread_presets()).params
+    fan = start.with_values(**{'thermal.convection_coefficient':
+                               2.8 * start.thermal.convection_coefficient,
+                               'effects.convection_exponent': 0.0})
+    rng = np.random.default_rng(3)
+    still = [bench_record(start, w, 0.02, rng, drift=0.0) for w in (0.3, 0.5, 0.7)]
+    paths = {}
+    for name, rec in [('still0', still[0]), ('still2', still[2]),
+                      ('fan0', bench_record(fan, 0.5, 0.02, rng, drift=0.0)),
+                      ('fan1', bench_record(fan, 1.0, 0.02, rng, drift=0.0))]:
+        paths[name] = str(tmp_path / f'{name}.csv')
+        write_csv_record(rec, paths[name])
+    cal_path = str(tmp_path / 'cal.yaml')
+    dump_params(calibrate(still, start, model='cst', check=False).params, cal_path)
+    config = str(tmp_path / 'start.yaml')
+    dump_params(start, config)
+    fanned = diagnose([paths['fan0'], paths['fan1']], config, calibrated=cal_path,
+                      progress=False)
+    notes = [n for n in fanned.notes if n.startswith('the refitted nominal parameters')]
+    assert len(notes) == 1 and 'more moving air or a liquid' in notes[0], fanned.notes
+    factors = [float(x) for x in re.findall(r'x(\d\.\d\d)', notes[0])]
+    assert len(factors) == 2 and max(factors) < 1.0 / 1.2, notes[0]
+    assert 'dead_time' not in fanned.effects
+    calm = diagnose([paths['still0'], paths['still2']], config, calibrated=cal_path,
+                    progress=False)
+    assert not [n for n in calm.notes if n.startswith('the refitted nominal parameters')]
+
+
 def test_an_air_flow_never_calibrated_is_predicted_with_its_priors_heat_loss():
     # calibrated in still air only, the muscle runs at 0.8 W under a fan that takes 2.8x
     # the heat away: predicted with the forced-air prior (2.5x) it is closer than as
@@ -316,3 +351,24 @@ def test_rig_pretension_and_environment_are_read_as_labs_write_them(tmp_path):
         assert environment_of(r) == 'forced_air' and not r.displacement.any()
     r.meta = {'rig': 'isotonic', 'environment': 'free'}
     assert rig_of(r) == 'dead_weight' and environment_of(r) == 'still_air'
+
+
+@pytest.mark.parametrize('rise, tau, says', [
+    (0.70, 0.68, 'more moving air'), (1.40, 1.30, 'stiller air'),
+    (0.70, 1.00, None),  # the rise alone: a power loss, not a heat loss
+    (0.90, 0.88, None),  # within the 1.2 factor: no change worth a word
+    (0.50, 0.90, None)])  # not one scale: the two factors disagree
+def test_the_heat_loss_note_needs_rise_and_time_constant_moved_together(rise, tau, says):
+    from tca_ros.calibration.candidates import ParameterSpace
+    from tca_ros.diagnosis.heat_loss_note import heat_loss_note
+    start = describe_muscle(SPEC, load_thread_presets()).params
+    r0, c0 = start.thermal.delivered_power_ratio, start.fiber.specific_heat
+    values = {'thermal.delivered_power_ratio': rise * r0, 'fiber.specific_heat': tau * c0}
+    spaces = (ParameterSpace('thermal.delivered_power_ratio', 0.7 * r0, 1.4 * r0, log=True),
+              ParameterSpace('fiber.specific_heat', 0.6 * c0, 1.6 * c0, log=True))
+    notes = heat_loss_note(start, values, spaces)
+    if says is None:
+        assert notes == []
+    else:
+        assert len(notes) == 1 and says in notes[0]
+        assert ('at the edge of their refit range' in notes[0]) == (rise in (0.70, 1.40))

@@ -15,6 +15,7 @@ from tca_ros.calibration.conditions import held_strength
 from tca_ros.calibration.progress import Progress
 from tca_ros.diagnosis.detectability import detectability_note
 from tca_ros.diagnosis.extension import Nominal, run_search, second_opinions
+from tca_ros.diagnosis.heat_loss_note import heat_loss_note
 from tca_ros.diagnosis.holdout import AUTO, choose_validation, DEFAULT_VALIDATION
 from tca_ros.diagnosis.joint import JOINT_NFEV
 from tca_ros.diagnosis.nominal import calibrate_training_part, candidates_of, DiagnosisError, \
@@ -234,6 +235,8 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
     effects, values, extendeds, judgement, found = second_opinions(
         nominal, calibrate_with, effects, values, extendeds, rounds, notes)
     extended_rmse, extended_stats, verdict, explanation = judgement
+    if nominal.cal is None:  # a nominal not calibrated on these records: their environment?
+        notes.extend(heat_loss_note(params, values, problem.recalibration))
     if holds_one_load(records) and (verdict != 'unexplained'
                                     or not needs_explaining(extended_stats)):
         # no structure left (the verdict may still be a finding's): say what one load hides
