@@ -16,9 +16,18 @@ def radius_ratio(temp, fiber):
     its value at T_p, so Gamma goes on linearly (nylon's rubbery plateau past its
     glass transition, docs/decisions.md G50). T_p at the melt: the paper's law.
     """
-    c2, c1, c0 = fiber.gamma_coefficients
-    top = fiber.expansion_plateau_temperature
-    if np.ndim(temp) == 0 and temp <= top:
+    return plateau_quadratic(temp, fiber.gamma_coefficients,
+                             fiber.expansion_plateau_temperature)
+
+
+def plateau_quadratic(temp, coefficients, top):
+    """Return c2 T^2 + c1 T + c0 (-) up to ``top`` (degC), linear with its slope above.
+
+    ``temp`` (degC) and the coefficients [c2, c1, c0] (1/degC^2, 1/degC, -) and
+    ``top`` may be scalars or arrays (one entry per muscle in the batch stepper).
+    """
+    c2, c1, c0 = coefficients
+    if np.ndim(temp) == 0 and np.ndim(top) == 0 and temp <= top:
         return (c2 * temp + c1) * temp + c0
     t = np.minimum(temp, top)
     return (c2 * t + c1) * t + c0 + (2.0 * c2 * t + c1) * (temp - t)

@@ -15,6 +15,7 @@ import math
 
 import numpy as np
 
+from tca_ros.model.fiber import plateau_quadratic
 from tca_ros.model.kinetostatics import natural_length
 from tca_ros.model.rod_model import cached_rod_model
 from tca_ros.model.rod_table import cubic_hermite, RodTableError
@@ -54,9 +55,7 @@ class MuscleArrays:
 
 def radius_ratio(temp, c):
     """Return Gamma(T) (-) of Eq. (2) per muscle; T in degC, linear above T_p (G50)."""
-    c2, c1, c0 = c.gamma
-    t = np.minimum(temp, c.plateau)
-    return (c2 * t + c1) * t + c0 + (2.0 * c2 * t + c1) * (temp - t)
+    return plateau_quadratic(temp, c.gamma, c.plateau)
 
 
 def unit_untwist(temp, c):
