@@ -187,6 +187,36 @@ def test_engine_holds_a_parameter_the_data_cannot_see():
     assert report.estimates['b'].value == 2.0
 
 
+def test_a_sensor_drift_is_a_nuisance_of_the_fit_when_asked():
+    # a first-order step response (tau 4 s) read by a sensor drifting 0.3 of the
+    # stroke over the record: fitted as it is, the drift bends tau; fitted less a drift
+    # from the record's zero (engine.without_drift), tau comes back. The temperature
+    # is read absolute and keeps its residual.
+    t = np.arange(0.0, 60.0, 0.2)
+    step = np.where(t >= 5.0, 1.0 - np.exp(-(t - 5.0) / 4.0), 0.0)
+    drift = 0.3 * t / t[-1]
+
+    class R:
+        time, displacement, temperature = t, step + drift, 20.0 + 0.0 * t
+
+    def predict(values, records):
+        shape = np.where(t >= 5.0, 1.0 - np.exp(-(t - 5.0) / values['tau']), 0.0)
+        return [{'displacement': shape, 'temperature': 20.0 + 0.5 * drift} for _ in records]
+
+    params = [engine.Parameter('tau', 's', 2.0, 0.1, 100.0, math.log(10.0))]
+    plain = engine.fit(engine.Objective([R()], ['displacement'], predict), params)
+    drifting = engine.fit(engine.Objective([R()], ['displacement'], predict, drift=True),
+                          params)
+    assert abs(plain.values['tau'] - 4.0) > 0.5  # bent by the drift
+    assert drifting.values['tau'] == pytest.approx(4.0, rel=1e-3)
+    both = engine.Objective([R()], ['displacement', 'temperature'], predict, drift=True)
+    residual = both.raw_residuals({'tau': 4.0})[0]
+    assert np.max(np.abs(residual['displacement'])) < 1e-9  # the drift is taken out
+    assert np.allclose(residual['temperature'], -0.5 * drift)  # an absolute channel keeps it
+    line = engine.without_drift(2.0 * t + np.sin(t), t)
+    assert float(line @ t) == pytest.approx(0.0, abs=1e-9)  # orthogonal to the drift
+
+
 def test_lumped_model_fits_its_own_step():
     t = np.arange(0.0, 60.0, 0.2)
     p = np.where((t >= 10.0) & (t < 40.0), 1.0, 0.0)

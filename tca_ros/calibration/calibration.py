@@ -235,7 +235,7 @@ def prepare_start(params, records, model=None):
 
 def calibrate(records, params, model=None, fit=None, progress=False, max_nfev=None,
               check=True, supply='power', masks=None, start_values=None, like=None,
-              physics=True):
+              physics=True, drift=False):
     """Calibrate ``params`` (start TcaParams) jointly on ``records``; return a Calibration.
 
     ``fit``: names to fit (default :func:`default_fit`, restricted to what the
@@ -251,7 +251,9 @@ def calibrate(records, params, model=None, fit=None, progress=False, max_nfev=No
     ``like``: an earlier Calibration of the same records and masks, whose defect
     corrections are used as they are in a single fit (no first estimate, no
     full-dynamics run: a diagnosis's joint calibrations start next to its
-    nominal calibration).
+    nominal calibration); ``drift``: fit the displacement and force less a linear
+    drift from each record's zero (engine.without_drift), the nuisance a
+    diagnosis's verdict removes from the residual it judges.
     """
     if not records:
         raise CalibrationError('records: none given')
@@ -312,7 +314,7 @@ def calibrate(records, params, model=None, fit=None, progress=False, max_nfev=No
     corrections = like.corrections if like is not None else None
     objective = engine.Objective(records, channels,
                                  predictor(start, model, channels, supply, corrections),
-                                 weights=weights, mask=selected)
+                                 weights=weights, mask=selected, drift=drift)
     bar = Progress(progress, total=(len(parameters) + 1) * 24, stage='calibration')
     initial = {'displacement': 0.05 * median_peak, 'temperature': 2.0,
                'force': 0.05 * medians.get(True, 0.01),
@@ -341,7 +343,7 @@ def calibrate(records, params, model=None, fit=None, progress=False, max_nfev=No
     if corrections is not None and like is None:
         objective = engine.Objective(records, channels,
                                      predictor(start, model, channels, supply, corrections),
-                                     weights=weights, mask=selected)
+                                     weights=weights, mask=selected, drift=drift)
         first_nfev = report.nfev
         report = engine.fit(objective, parameters, start=report.values, **options)
         report.nfev += first_nfev

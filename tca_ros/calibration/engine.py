@@ -43,6 +43,8 @@ IDENTIFIABLE_RATIO = 1.0 / math.sqrt(2.0)
 FAILED_RESIDUAL = 1e3  # residual per sample (in sigma) when a prediction fails
 DIFF_STEP = 1e-3  # relative finite-difference step in fit coordinates
 REWEIGHT_PASSES = 2  # fits with re-estimated channel scales
+#: channels a record reads from zero at its start (an encoder zeroed, a load cell tared)
+RELATIVE_CHANNELS = ('displacement', 'force')
 
 
 @dataclass(frozen=True)
@@ -140,15 +142,22 @@ class Objective:
         Relative residual scale of each record (default 1).
     mask : callable, optional
         ``mask(record)`` -> boolean array of samples used (default all).
+    drift : bool, optional
+        Take the residual of each channel read from the record's zero
+        (RELATIVE_CHANNELS) less its least-squares linear drift from that zero
+        (:func:`without_drift`): a sensor's drift is a nuisance of the fit, as it is
+        of the diagnosis's verdict (default False). A temperature or a resistance is
+        read absolute, not from a zero, and keeps its residual.
     """
 
-    def __init__(self, records, channels, predict, weights=None, mask=None):
+    def __init__(self, records, channels, predict, weights=None, mask=None, drift=False):
         self.records = list(records)
         self.channels = list(channels)
         self.predict = predict
         self.weights = list(weights) if weights is not None else [1.0] * len(self.records)
         self.masks = [np.ones(r.time.size, bool) if mask is None else mask(r)
                       for r in self.records]
+        self.drift = bool(drift)
         self.nfev = 0
 
     def raw_residuals(self, values):
@@ -163,12 +172,31 @@ class Objective:
             res = {c: (getattr(record, c) - pred[c])[sel] for c in self.channels}
             if not all(np.all(np.isfinite(v)) for v in res.values()):
                 return None
+            if self.drift:
+                since_zero = (record.time - record.time[0])[sel]
+                res = {c: without_drift(v, since_zero) if c in RELATIVE_CHANNELS else v
+                       for c, v in res.items()}
             out.append(res)
         return out
 
     def size(self):
         """Return the number of data residuals."""
         return sum(int(m.sum()) for m in self.masks) * len(self.channels)
+
+
+def without_drift(residual, since_zero):
+    """Return ``residual`` less b (t - t_0), b its least-squares drift rate (unit/s).
+
+    ``since_zero``: the samples' times from the record's zero (s). A record reads
+    zero at its start (an encoder is zeroed, a CSV made relative), so a sensor's
+    drift is a line through that zero: one rate, projected out in closed form at
+    every evaluation (variable projection), as the verdict's nuisance term
+    (diagnosis/regressors.nuisance_columns) takes it out of a residual.
+    """
+    norm = float(since_zero @ since_zero)
+    if norm <= 0.0:
+        return residual
+    return residual - (float(residual @ since_zero) / norm) * since_zero
 
 
 def _stack(raw, objective, scale, factor):

@@ -227,10 +227,15 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
                                        start_values=start_values, like=like)
 
     def on_whole_records(fit, start_values, like):
-        """Calibrate ``fit`` on the whole records (joint.confirm_on_whole)."""
+        """Calibrate ``fit`` on the whole records (joint.confirm_on_whole).
+
+        Less each record's sensor drift (calibrate's ``drift``): the confirmation
+        judges the whole-record residual with that drift removed, so the fit it
+        judges does not bend its values to the drift either.
+        """
         return calibrate_training_part(records, start_params, model, None, supply,
                                        False, validation, fit=fit, max_nfev=JOINT_NFEV,
-                                       start_values=start_values, like=like)
+                                       start_values=start_values, like=like, drift=True)
     calibrate_with.whole = on_whole_records
     effects, values, extendeds, judgement, found = second_opinions(
         nominal, calibrate_with, effects, values, extendeds, rounds, notes)
