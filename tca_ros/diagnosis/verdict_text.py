@@ -123,8 +123,9 @@ def confirmed_sentence(effects, heldout_stats, whole_stats, gain):
     whole record (not structured); ``gain``: its penalised held-out gain over the
     calibrated nominal model (joint.py, "confirmed on the whole record").
     """
-    return (f'after adding {" + ".join(effects)}, calibrated jointly on the whole record, '
-            f'no channel of its residual is structured ({channels_text(whole_stats)}); '
+    return (f'after adding {" + ".join(effects)}, calibrated jointly on the whole record '
+            f"less each record's sensor drift, no channel of its residual is structured "
+            f'({channels_text(whole_stats)}); '
             f'fitted on the training part it predicts the held-out part better than the '
             f'nominal model (penalised held-out gain {gain:.1f}), and what the inputs still '
             f"predict there is its parameters' estimation error, which the whole-record "
