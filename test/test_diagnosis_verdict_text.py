@@ -127,5 +127,6 @@ def test_a_joint_fit_confirmed_on_the_whole_record_is_explained_only_when_that_i
     assert '. ' not in sentence and not sentence.endswith('.')
     if clean:
         assert sentence.startswith('after adding power_loss, calibrated jointly on the whole '
-                                   'record, no channel of its residual is structured')
+                                   "record less each record's sensor drift, no channel of "
+                                   'its residual is structured')
         assert 'penalised held-out gain 23.0' in sentence

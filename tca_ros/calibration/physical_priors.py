@@ -145,9 +145,8 @@ def plausibility(parameters, values, params):
 #: catalogue effects (model/effects.py) a shift of each calibrated value can stand for
 STANDS_FOR = {
     'delivered_power_ratio': ('power_loss',),
-    # a slower response: a lag, or a play (hysteresis) or friction the stroke waits out
-    'heat_capacity': ('second_thermal_lag', 'sensor_lag', 'dead_time', 'hysteresis',
-                      'friction'),
+    # a slower response: a lag, or a play (hysteresis) the stroke waits out (G54)
+    'heat_capacity': ('second_thermal_lag', 'sensor_lag', 'dead_time', 'hysteresis'),
     'stiffness_scale': ('modulus_softening', 'creep'),
     'actuation_gain': ('power_loss', 'modulus_softening'),
     'damping': ('second_thermal_lag', 'sensor_lag', 'friction', 'hysteresis'),
