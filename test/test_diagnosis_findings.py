@@ -31,6 +31,21 @@ def _described(tmp_path, seed, hidden, tightnesses, **conditions):
     return record, paths, truth
 
 
+def _benchmark_case(tmp_path, seed, hidden):
+    """Return (diagnosis, truth) of a confusion benchmark case, described exactly.
+
+    bench_diagnosis_confusion.py's one-record layout: realistic_case's record of
+    ``seed`` with the ``hidden`` effects, the description 'exact' drawn as there.
+    """
+    from tca_ros.synthetic.descriptions import TIGHTNESS
+    record, start = realistic_case(seed, hidden, str(tmp_path))
+    truth = load_params(truth_path(str(tmp_path), seed))
+    description = str(tmp_path / 'exact.yaml')
+    dump_params(describe(truth, load_params(start), 'exact',
+                         np.random.default_rng([seed, TIGHTNESS.index('exact')])), description)
+    return diagnose(record, description, progress=False), truth
+
+
 def test_a_measured_description_names_the_power_loss_a_guessed_one_absorbs(tmp_path):
     # 14 % of the logged power never heats the thread, no thermometer. Described as
     # measured (2-5 %), the calibration must move the heat capacity, loss and gain
@@ -125,13 +140,7 @@ def test_a_sensor_lag_the_heat_capacity_took_up_without_a_thermometer_is_found(t
     # exact description's calibration moves the heat capacity +2.7 spreads, which a
     # sensor lag explains as well as a second thermal lag (decisions G48). Before, only
     # the thermal lags were tested and the second thermal lag was named alone
-    from tca_ros.synthetic.descriptions import TIGHTNESS
-    record, start = realistic_case(9126, ['sensor_lag', 'hysteresis'], str(tmp_path))
-    truth = load_params(truth_path(str(tmp_path), 9126))
-    description = str(tmp_path / 'exact.yaml')
-    dump_params(describe(truth, load_params(start), 'exact',
-                         np.random.default_rng([9126, TIGHTNESS.index('exact')])), description)
-    result = diagnose(record, description, progress=False)
+    result, _ = _benchmark_case(tmp_path, 9126, ['sensor_lag', 'hysteresis'])
     assert [n for n, z, _ in result.calibration.findings()] == ['heat_capacity']
     assert result.effects == ['sensor_lag']
     assert any('sensor_lag and second_thermal_lag are rivals' in n for n in result.notes)
@@ -145,13 +154,7 @@ def test_a_friction_in_a_drifting_record_is_confirmed_on_the_whole_record_less_t
     # better (gain > 300) but leaves structure; calibrated on the whole record it left
     # structure too while the fit bent its values to the drift that the verdict's test
     # then removes (decisions G52). Fitted less that drift it is confirmed and named.
-    from tca_ros.synthetic.descriptions import TIGHTNESS
-    record, start = realistic_case(9123, ['friction'], str(tmp_path))
-    truth = load_params(truth_path(str(tmp_path), 9123))
-    description = str(tmp_path / 'exact.yaml')
-    dump_params(describe(truth, load_params(start), 'exact',
-                         np.random.default_rng([9123, TIGHTNESS.index('exact')])), description)
-    result = diagnose(record, description, progress=False)
+    result, truth = _benchmark_case(tmp_path, 9123, ['friction'])
     assert result.effects == ['friction']
     assert result.verdict == 'explained'
     assert 'calibrated jointly on the whole record' in result.explanation
@@ -165,13 +168,7 @@ def test_a_hysteresis_the_heat_capacity_took_up_is_tested_as_its_cause(tmp_path)
     # description's calibration moves the heat capacity up, a slower response. Only the
     # lags were tested as its cause and a sensor lag was named; the play (and friction)
     # are tested too now, and the hysteresis explains it (G54)
-    from tca_ros.synthetic.descriptions import TIGHTNESS
-    record, start = realistic_case(9107, ['hysteresis'], str(tmp_path))
-    truth = load_params(truth_path(str(tmp_path), 9107))
-    description = str(tmp_path / 'exact.yaml')
-    dump_params(describe(truth, load_params(start), 'exact',
-                         np.random.default_rng([9107, TIGHTNESS.index('exact')])), description)
-    result = diagnose(record, description, progress=False)
+    result, truth = _benchmark_case(tmp_path, 9107, ['hysteresis'])
     assert 'heat_capacity' in [n for n, z, _ in result.calibration.findings()]
     assert result.effects == ['hysteresis']
     assert result.extended_values['effects.hysteresis_width'] == pytest.approx(
