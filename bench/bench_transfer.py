@@ -76,7 +76,7 @@ VARIANTS = {
     '+ both + h(dT)': ((CURVE, LAG), False, True),
     # the default, the muscle described with the thread its sibling's calibration measured
     SIBLING_VARIANT: (None, True, True),
-    # the default fitted less a linear drift from each record's zero (`--drift`)
+    # the default fitted less a linear drift from each record's zero (calibrate's ``drift``)
     DRIFT_VARIANT: (None, True, True),
 }
 #: the muscle whose calibration (on all its records, default fit) gives each muscle's
