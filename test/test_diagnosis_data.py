@@ -96,7 +96,26 @@ def test_jittered_times_are_resampled_to_a_uniform_grid():
     out = uniform_record(rec)
     assert np.ptp(np.diff(out.time)) < 1e-9
     np.testing.assert_allclose(out.displacement, out.time * 1e-3, atol=1e-12)  # linear
-    assert set(np.unique(out.power)) == {0.0, 1.0}  # held, not interpolated
+    # held from each stamp, averaged over each grid interval: the step stamped at
+    # t[20] = 2.0 + 0.003 sin(20) s leaves its interval [2.0, 2.1) s that share of 1 W
+    late = t[20] - 2.0
+    np.testing.assert_allclose(out.power[20], late / 0.1, rtol=1e-9)
+    np.testing.assert_array_equal(out.power[:20], 1.0)
+    np.testing.assert_array_equal(out.power[21:], 0.0)
+
+
+def test_a_step_stamped_late_is_averaged_over_its_interval_not_delayed_a_sample():
+    """A command stamped 0.2 periods late keeps 0.8 of its first interval (1 Hz, 1 W)."""
+    t = np.arange(30.0)
+    t[10] += 0.2  # the step to 1 W was stamped 0.2 s after the grid time it belongs to
+    rec = Record(time=t, power=np.where(np.arange(30) >= 10, 1.0, 0.0),
+                 load=np.full_like(t, 0.3), displacement=np.zeros(30),
+                 meta={'sample_rate_hz': 1.0})
+    out = uniform_record(rec)
+    np.testing.assert_allclose(out.power[9:12], [0.0, 0.8, 1.0], atol=1e-12)
+    # the energy over the record is the held signal's (a zero-order hold on the grid
+    # would have delivered the first second at 0 W: 1 J short)
+    assert np.sum(out.power) * 1.0 == pytest.approx(np.sum(rec.power) - 0.2, abs=1e-12)
 
 
 def _write_bag(path, n=60, rate=20.0, namespace='/finger1'):

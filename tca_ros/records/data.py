@@ -35,7 +35,8 @@ from tca_ros.model.params_schema import SPECS
 from tca_ros.records.data_bag import read_bag_record
 # the bounds marked noqa are not used here: the CLI checks its options against them
 from tca_ros.records.record import ABSOLUTE_ZERO_DEGC, MAX_LOAD_N, MAX_POWER_W  # noqa: F401
-from tca_ros.records.record import clip, DataError, MIN_SAMPLES, Record, TIME, VALUE_RANGES
+from tca_ros.records.record import clip, DataError, held_average, MIN_SAMPLES, Record, TIME, \
+    VALUE_RANGES
 from tca_ros.records.record import MAX_TEMPERATURE_DEGC  # noqa: F401
 
 REQUIRED_COLUMNS = ('time', 'power', 'load', 'displacement')
@@ -313,8 +314,9 @@ def _check_rate(record, path, row):
 def uniform_record(record, rate=None):
     """Return ``record`` on a uniform grid at ``rate`` (Hz, default the header rate).
 
-    Inputs (power, load) are held from each sample to the next (zero-order hold,
-    as the simulator applies them); outputs are interpolated linearly. A record
+    Inputs (power, load) are each sample's value held to the next sample,
+    averaged over each grid interval (record.held_average: the simulator holds
+    sample k over [t_k, t_k+1)); outputs are interpolated linearly. A record
     already uniform within JITTER_TOLERANCE is returned unchanged.
     """
     rate = float(rate or record.meta.get('sample_rate_hz') or record.sample_rate)
@@ -323,12 +325,14 @@ def uniform_record(record, rate=None):
         return record
     grid = np.arange(0.0, record.time[-1] + 0.5 / rate, 1.0 / rate)
     grid = grid[grid <= record.time[-1]]
-    hold = np.clip(np.searchsorted(record.time, grid, side='right') - 1, 0, None)
 
     def interp(y):
         return None if y is None else np.interp(grid, record.time, y)
 
-    return replace(record, time=grid, power=record.power[hold], load=record.load[hold],
+    def held(u):  # before the first sample the input is the first sample's
+        return held_average(record.time, u, grid, rate, before=float(u[0]))
+
+    return replace(record, time=grid, power=held(record.power), load=held(record.load),
                    displacement=interp(record.displacement),
                    temperature=interp(record.temperature),
                    resistance=interp(record.resistance), force=interp(record.force))

@@ -13,8 +13,8 @@ import math
 import numpy as np
 
 from tca_ros.model.params_schema import GRAVITY
-from tca_ros.records.record import clip, DataError, DISPLACEMENT, MIN_SAMPLES, Record, \
-    TIME, VALUE_RANGES
+from tca_ros.records.record import clip, DataError, DISPLACEMENT, held_average, MIN_SAMPLES, \
+    Record, TIME, VALUE_RANGES
 
 # 'power' is the power the node applied (after clamping, watchdog, V^2/R); preferred over
 # the commanded 'power_cmd' when the bag has it
@@ -133,16 +133,7 @@ def read_bag_record(path, sample_rate=None, tca='', mass_kg=None, load=None,
         samples = series[name]
         if not samples:
             return np.full_like(grid, before)
-        times = on_clock(samples)
-        rel = np.array([s[2] for s in samples]) - before  # held value after each message
-        # F(t) = integral of (held - before) up to t: piecewise linear, kinks at messages
-        at_messages = np.concatenate(([0.0], np.cumsum(rel[:-1] * np.diff(times))))
-        edges = np.append(grid, grid[-1] + 1.0 / rate)
-        j = np.searchsorted(times, edges, side='right') - 1
-        inside = np.clip(j, 0, None)
-        integral = np.where(j >= 0, at_messages[inside] + rel[inside] * (edges - times[inside]),
-                            0.0)
-        return before + np.diff(integral) * rate
+        return held_average(on_clock(samples), [s[2] for s in samples], grid, rate, before)
 
     mass = float(mass_kg) if mass_kg is not None else 0.0
     if load is None and tca:

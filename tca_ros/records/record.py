@@ -92,3 +92,37 @@ def clip(text, limit=40):
     """Return ``text`` cut to ``limit`` characters (an ellipsis marks the cut)."""
     text = str(text)
     return text if len(text) <= limit else text[:limit] + '...'
+
+
+def held_average(times, values, grid, rate, before=0.0):
+    """Return an input (W or N) as its time average over each grid interval [t_k, t_k + 1/rate).
+
+    ``values[i]`` is held from ``times[i]`` (s) to the next time (a command acts
+    until the next one); before ``times[0]`` the input is ``before``. A change
+    that falls inside an interval acts for the rest of it, so irregular stamps
+    shift the energy a record delivers by no more than they shift the stamps,
+    where holding the last sample at each grid time would delay a step by up to
+    a whole sample. ``grid`` (s) is uniform at ``rate`` (Hz). An interval no
+    change falls in keeps the held value exactly.
+    """
+    times = np.asarray(times, dtype=float)
+    values = np.asarray(values, dtype=float)
+    previous = np.concatenate(([float(before)], values[:-1]))
+    changes = values != previous  # a sample repeating the held value changes nothing
+    times, values = times[changes], values[changes]
+    held = np.concatenate(([float(before)], values))
+    edges = np.append(grid, grid[-1] + 1.0 / rate)
+    j = np.searchsorted(times, edges, side='right')  # held[j] acts at each edge
+    out = held[j[:-1]]
+    moved = np.flatnonzero(np.searchsorted(times, edges[1:], side='left') > j[:-1])
+    if moved.size:  # the intervals a change falls in: the held signal's integral over each
+        rel = values - before
+        at_times = np.concatenate(([0.0], np.cumsum(rel[:-1] * np.diff(times))))
+
+        def integral(t, k):  # of (held - before) from the first change to t; k changes before t
+            return np.where(k > 0, at_times[k - 1] + rel[k - 1] * (t - times[k - 1]), 0.0)
+
+        lo, hi = edges[moved], edges[moved + 1]
+        spans = integral(hi, np.searchsorted(times, hi, side='right')) - integral(lo, j[moved])
+        out[moved] = before + spans * rate
+    return out
