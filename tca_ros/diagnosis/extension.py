@@ -14,7 +14,8 @@ from tca_ros.diagnosis.findings import explain_findings, finding_effects, found_
     unexplained_findings
 from tca_ros.diagnosis.joint import beats_nominal, family_rivals, joint_extension, \
     joint_notes
-from tca_ros.diagnosis.one_load import predictable_below_floor, softening_on_one_load
+from tca_ros.diagnosis.one_load import predictable_below_floor, RIVAL as ONE_LOAD_RIVAL, \
+    softening_on_one_load
 from tca_ros.diagnosis.search import MIN_GAIN_PERCENT, search_effects
 from tca_ros.diagnosis.verdict import channel_stats, decide_verdict, holds_one_load, \
     needs_explaining, NOTHING_TO_EXPLAIN, pooled_heldout_rmse
@@ -108,10 +109,14 @@ def second_opinions(nominal, calibrate_with, effects, values, extendeds, rounds,
     if judgement[2] == 'unexplained' and cal is not None and rounds:
         # the search's nominal refit is narrow: calibrate its first round's best
         # candidates together with the nominal parameters (joint.py)
+        extra = list(named_by_findings)
+        if holds_one_load([p.record for p in nominal.problems]) and ONE_LOAD_RIVAL not in extra:
+            # on one load the calibrated gain already took up a softening: the search's
+            # screen (a softening added on top of that gain) cannot see it (one_load.py)
+            extra.append(ONE_LOAD_RIVAL)
         joint, rivals, near = joint_extension(calibrate_with, nominal.problems, nominal.sims,
                                               cal, nominal.candidates, rounds,
-                                              nominal.drift_free_rmse,
-                                              extra=named_by_findings)
+                                              nominal.drift_free_rmse, extra=extra)
         if joint is not None:
             notes.extend(joint_notes(joint, rivals, effects, near))
             effects, values, extendeds, judgement = nominal.adopted(joint)
