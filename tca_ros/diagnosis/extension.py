@@ -10,8 +10,8 @@ part shows only estimation error), the findings' effects tested as their cause
 from dataclasses import dataclass
 
 from tca_ros.calibration.candidates import parameters_at_bounds
-from tca_ros.diagnosis.findings import explain_findings, finding_effects, found_text, \
-    unexplained_findings
+from tca_ros.diagnosis.findings import explain_findings, finding_effects, findings_rival, \
+    found_text, unexplained_findings
 from tca_ros.diagnosis.joint import beats_nominal, family_rivals, joint_extension, \
     joint_notes
 from tca_ros.diagnosis.one_load import predictable_below_floor, RIVAL as ONE_LOAD_RIVAL, \
@@ -159,6 +159,18 @@ def second_opinions(nominal, calibrate_with, effects, values, extendeds, rounds,
                        + ' sits at the end of its physical range: the data ask for more '
                        'than the effect can be, so it stands in for a cause that is not in '
                        'the catalogue and is not named')
+    if (verdict == 'explained' and joint is None and cal is not None and named_by_findings
+            and not set(effects) & set(named_by_findings)):
+        # the search explained the records with effects none of the findings stand for:
+        # the findings' own effects, calibrated jointly, are its rivals (findings.py)
+        added = len([k for k in values if k not in nominal.start_values])
+        taken, said = findings_rival(calibrate_with, nominal.problems, nominal.sims, cal,
+                                     nominal.candidates, effects, extendeds, added)
+        notes.extend(said)
+        if taken is not None:
+            joint = taken.fit
+            effects, values, extendeds, judgement = nominal.adopted(joint)
+            rmse, stats, verdict, explanation = judgement
     if verdict == 'explained' and joint is None and len(effects) in (1, 2) and cal is not None:
         # effects of families the records may not tell apart: the rivals (one member
         # swapped for each of its rivals) calibrated jointly; one decisively better

@@ -235,3 +235,41 @@ def unexplained_findings(cal):
             f'beyond {SHIFT_Z:g}), and none of the catalogue effects they can stand for '
             'explains the move: the muscle differs from its description there, or an '
             'effect outside the catalogue acts')
+
+
+def findings_rival(calibrate_with, problems, nominals, cal, candidates, found, sims, added):
+    """Return (a FindingTest that replaces the search's ``found`` effects or None, notes).
+
+    The search explained the records with ``found`` (record-rate ``sims``, ``added``
+    effect parameters), none of them an effect ``cal``'s findings stand for: its
+    refit stays near the description (G31), so the explanation and the findings
+    may be two readings of one signature. Each effect the findings name is
+    calibrated jointly and weighed (:func:`weigh_finding_effect`); one that passes
+    replaces ``found`` when its penalised held-out deviance gain over the calibrated
+    nominal beats the search's by more than DECISIVE_DEVIANCE (decisions G57).
+    Arguments as :func:`explain_findings`.
+    """
+    by_name = {n: c for n, c in calibratable(candidates).items() if c.starts}
+    groups = [(by_name[n],) for n in finding_effects(cal) if n in by_name]
+    if not groups:
+        return None, []
+    fits = joint_calibrations(calibrate_with, problems, nominals, cal, candidates, groups,
+                              gate=False)
+    tests = [t for t in (weigh_finding_effect(f, cal, problems, nominals) for f in fits)
+             if t.passes]
+    if not tests:
+        return None, []
+    deviance, n = heldout_deviance(problems, nominals, sims)
+    log_n = math.log(max(n, 2))
+    ours = deviance - added * log_n
+    best = max(tests, key=lambda t: t.deviance - t.fit.n_params * log_n)
+    theirs = best.deviance - best.fit.n_params * log_n
+    shifted = ', '.join(f'{n} ({z:+.1f} spreads)' for n, z, _ in cal.findings(implausible=True))
+    said = (f'{" + ".join(found)} explains the records (penalised held-out gain {ours:.1f} '
+            f'over the calibrated nominal), and the findings {shifted} are explained by '
+            f'{best.name}, calibrated jointly (penalised held-out gain {theirs:.1f})')
+    if theirs - ours > DECISIVE_DEVIANCE:
+        return best, [f'{said}: {best.name} predicts the held-out part decisively better '
+                      f'(by over {DECISIVE_DEVIANCE:g}) and replaces it (decisions G57)']
+    return None, [f'{said}: not decisively better (by over {DECISIVE_DEVIANCE:g} needed); '
+                  f'{" + ".join(found)} kept, {best.name} its rival']
