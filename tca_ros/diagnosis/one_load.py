@@ -15,7 +15,11 @@ the inputs predict its residual significantly (the F-test of the structure test,
 below the floor only), modulus softening is calibrated jointly with the nominal
 parameters (joint.joint_calibrations) and weighed as a family rival is (G35):
 
-* named when its penalised held-out gain over the calibrated nominal exceeds
+* named when the calibrated actuation gain moved down by more than GAIN_DOWN_Z prior
+  spreads (what a softening does to it: the coil that softens as it heats stretches
+  under its load and loses stroke; a sensor reading high on large strokes moves it up,
+  and a muscle as described barely moves it), its penalised held-out gain over the
+  calibrated nominal exceeds
   DECISIVE_DEVIANCE ("very strong" evidence), it lowers the calibration's objective
   (data + priors) beyond its penalty k ln n_eff, its held-out RMS is MIN_GAIN_PERCENT
   lower with the verdict's drift removed from both (the raw RMS rewards a calibration
@@ -38,6 +42,10 @@ from tca_ros.diagnosis.verdict import pooled_heldout_rmse
 
 #: the effect a one-load record lets the calibrated nominal values absorb
 RIVAL = 'modulus_softening'
+#: prior spreads the calibrated actuation gain must have moved down (-) to name the
+#: softening: a coil that softens as it heats stretches under its load, so less stroke
+#: is left at temperature, which a lower gain takes up (decisions G58)
+GAIN_DOWN_Z = 1.0
 
 
 def predictable_below_floor(*stats):
@@ -70,14 +78,20 @@ def softening_on_one_load(calibrate_with, problems, nominals, cal, candidates):
     channels = problems[0].channels
     before = pooled_heldout_rmse(problems, nominals, channels, detrend=True)
     after = pooled_heldout_rmse(problems, fit.sims, channels, detrend=True)
-    named = (fit.criterion > DECISIVE_DEVIANCE and fall > 0.0 and fit.explained
-             and not fit.pinned and lowers_heldout_rms(problems, fit.sims, before))
     value = fit.values.get('effects.extra_softening', 0.0)
     gain = cal.report.values.get('actuation_gain')
     moved = next((r.z for r in cal.plausibility() if r.name == 'actuation_gain'), None)
-    absorbed = (f'the calibrated actuation gain ({gain:.4g}, {moved:+.1f} prior spreads) '
-                'takes up a softening on one load' if gain is not None and moved is not None
-                else 'the calibrated nominal values take up a softening on one load')
+    named = (fit.criterion > DECISIVE_DEVIANCE and fall > 0.0 and fit.explained
+             and not fit.pinned and lowers_heldout_rms(problems, fit.sims, before)
+             and moved is not None and moved < -GAIN_DOWN_Z)
+    if gain is None or moved is None:
+        absorbed = 'the calibrated nominal values may take up a softening on one load'
+    elif moved < -GAIN_DOWN_Z:
+        absorbed = (f'the calibrated actuation gain ({gain:.4g}, {moved:+.1f} prior spreads) '
+                    'takes up a softening on one load')
+    else:
+        absorbed = (f'the calibrated actuation gain ({gain:.4g}, {moved:+.1f} prior spreads) '
+                    'did not move down as a softening would move it')
     evidence = (f'{RIVAL} ({value / 1e6:.3g} MPa/K), calibrated jointly with the nominal '
                 f'parameters, predicts the held-out part better than the calibrated nominal '
                 f'model (penalised held-out gain {fit.criterion:.1f}; objective fall '
@@ -89,7 +103,8 @@ def softening_on_one_load(calibrate_with, problems, nominals, cal, candidates):
                  '(docs/diagnosis_method.md, "One load, and what a record cannot see")']
     else:
         notes = [f'{evidence}: not decisive (a gain over {DECISIVE_DEVIANCE:g}, a held-out '
-                 f'RMS {MIN_GAIN_PERCENT:g} % lower, no structure and no parameter at a bound '
+                 f'RMS {MIN_GAIN_PERCENT:g} % lower, no structure, no parameter at a bound '
+                 f'and the calibrated gain moved down by over {GAIN_DOWN_Z:g} prior spread '
                  'are needed to name it); the records do not tell it from the calibrated gain']
     experiment = _experiment(cal, fit)
     if experiment is not None:
