@@ -14,8 +14,8 @@ from tca_ros.diagnosis.findings import explain_findings, finding_effects, findin
     found_text, unexplained_findings
 from tca_ros.diagnosis.joint import beats_nominal, family_rivals, joint_extension, \
     joint_notes
-from tca_ros.diagnosis.one_load import predictable_below_floor, RIVAL as ONE_LOAD_RIVAL, \
-    softening_on_one_load
+from tca_ros.diagnosis.one_load import gain_took_up_softening, predictable_below_floor, \
+    RIVAL as ONE_LOAD_RIVAL, softening_on_one_load
 from tca_ros.diagnosis.search import MIN_GAIN_PERCENT, search_effects
 from tca_ros.diagnosis.verdict import channel_stats, decide_verdict, holds_one_load, \
     needs_explaining, NOTHING_TO_EXPLAIN, pooled_heldout_rmse
@@ -110,8 +110,9 @@ def second_opinions(nominal, calibrate_with, effects, values, extendeds, rounds,
         # the search's nominal refit is narrow: calibrate its first round's best
         # candidates together with the nominal parameters (joint.py)
         extra = list(named_by_findings)
-        if holds_one_load([p.record for p in nominal.problems]) and ONE_LOAD_RIVAL not in extra:
-            # on one load the calibrated gain already took up a softening: the search's
+        if (holds_one_load([p.record for p in nominal.problems]) and ONE_LOAD_RIVAL not in extra
+                and gain_took_up_softening(cal)):
+            # on one load a gain moved down may have taken up a softening: the search's
             # screen (a softening added on top of that gain) cannot see it (one_load.py)
             extra.append(ONE_LOAD_RIVAL)
         joint, rivals, near = joint_extension(calibrate_with, nominal.problems, nominal.sims,

@@ -118,6 +118,21 @@ def weigh_finding_effect(fit, cal, problems, nominals):
                        returned=returned, passes=passes, names=tuple(names))
 
 
+def finding_tests(calibrate_with, problems, nominals, cal, candidates):
+    """Return the FindingTests of the effects ``cal``'s findings name, each calibrated jointly.
+
+    Only effects a calibration can fit (not coil contact); None when there is none
+    ([] when each such calibration failed). Arguments as :func:`explain_findings`.
+    """
+    by_name = {n: c for n, c in calibratable(candidates).items() if c.starts}
+    groups = [(by_name[n],) for n in finding_effects(cal) if n in by_name]
+    if not groups:
+        return None
+    fits = joint_calibrations(calibrate_with, problems, nominals, cal, candidates, groups,
+                              gate=False)
+    return [weigh_finding_effect(f, cal, problems, nominals) for f in fits]
+
+
 def explain_findings(calibrate_with, problems, nominals, cal, candidates):
     """Return (the FindingTest named or None, notes) of the effects ``cal``'s findings name.
 
@@ -126,14 +141,10 @@ def explain_findings(calibrate_with, problems, nominals, cal, candidates):
     contact) is calibrated jointly with the nominal parameters and tested
     (weigh_finding_effect); the passing one with the largest fall is returned.
     """
-    by_name = {n: c for n, c in calibratable(candidates).items() if c.starts}
-    groups = [(by_name[n],) for n in finding_effects(cal) if n in by_name]
-    if not groups:
+    tests = finding_tests(calibrate_with, problems, nominals, cal, candidates)
+    if tests is None:
         return None, []
-    fits = joint_calibrations(calibrate_with, problems, nominals, cal, candidates, groups,
-                              gate=False)
-    tests = sorted((weigh_finding_effect(f, cal, problems, nominals) for f in fits),
-                   key=lambda t: -t.fall)
+    tests.sort(key=lambda t: -t.fall)
     passing = [t for t in tests if t.passes]
     shifted = ', '.join(f'{n} ({z:+.1f} spreads)'
                         for n, z, _ in cal.findings(implausible=True))
@@ -249,13 +260,7 @@ def findings_rival(calibrate_with, problems, nominals, cal, candidates, found, s
     nominal beats the search's by more than DECISIVE_DEVIANCE (decisions G57).
     Arguments as :func:`explain_findings`.
     """
-    by_name = {n: c for n, c in calibratable(candidates).items() if c.starts}
-    groups = [(by_name[n],) for n in finding_effects(cal) if n in by_name]
-    if not groups:
-        return None, []
-    fits = joint_calibrations(calibrate_with, problems, nominals, cal, candidates, groups,
-                              gate=False)
-    tests = [t for t in (weigh_finding_effect(f, cal, problems, nominals) for f in fits)
+    tests = [t for t in finding_tests(calibrate_with, problems, nominals, cal, candidates) or ()
              if t.passes]
     if not tests:
         return None, []

@@ -48,6 +48,21 @@ RIVAL = 'modulus_softening'
 GAIN_DOWN_Z = 1.0
 
 
+def actuation_gain_z(cal):
+    """Return how far (prior spreads, -) the calibration moved the actuation gain, or None."""
+    return next((r.z for r in cal.plausibility() if r.name == 'actuation_gain'), None)
+
+
+def gain_took_up_softening(cal):
+    """Return True when ``cal`` moved the actuation gain down by over GAIN_DOWN_Z spreads.
+
+    What a softening on one load does to the calibrated gain (GAIN_DOWN_Z): the
+    sign that the gain may hide one (decisions G55, G58).
+    """
+    moved = actuation_gain_z(cal)
+    return moved is not None and moved < -GAIN_DOWN_Z
+
+
 def predictable_below_floor(*stats):
     """Return True when the inputs predict some channel's residual significantly.
 
@@ -80,10 +95,10 @@ def softening_on_one_load(calibrate_with, problems, nominals, cal, candidates):
     after = pooled_heldout_rmse(problems, fit.sims, channels, detrend=True)
     value = fit.values.get('effects.extra_softening', 0.0)
     gain = cal.report.values.get('actuation_gain')
-    moved = next((r.z for r in cal.plausibility() if r.name == 'actuation_gain'), None)
+    moved = actuation_gain_z(cal)
     named = (fit.criterion > DECISIVE_DEVIANCE and fall > 0.0 and fit.explained
              and not fit.pinned and lowers_heldout_rms(problems, fit.sims, before)
-             and moved is not None and moved < -GAIN_DOWN_Z)
+             and gain_took_up_softening(cal))
     if gain is None or moved is None:
         absorbed = 'the calibrated nominal values may take up a softening on one load'
     elif moved < -GAIN_DOWN_Z:
