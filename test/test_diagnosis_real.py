@@ -113,15 +113,14 @@ def test_realistic_hidden_friction_is_found_first_at_its_magnitude(friction_case
 
 
 def test_realistic_hidden_friction_is_named(friction_case):
-    # the search's extension leaves 136 um that the inputs predict (floor 107 um); friction
-    # calibrated jointly with the nominal parameters on the training part leaves 154 um
-    # there, and none on the whole record when calibrated on it (joint.confirm_on_whole):
-    # the held-out structure is its estimation error on one record without temperature
-    # (the gain traded against the steady rise), and friction is named
+    # seed 33 has jittered stamps: with its inputs averaged over each grid interval (G56)
+    # friction leaves 52 um that the inputs predict on the held-out part, under the 107 um
+    # floor, and is named without the whole-record confirmation it needed when steps were
+    # held a sample late (the confirmation is tested on seed 9123 in
+    # test_diagnosis_findings.py)
     result = friction_case
     assert result.effects == ['friction'], result.explanation
     assert result.verdict == 'explained'
-    assert 'calibrated jointly on the whole record' in result.explanation
     # jointly calibrated on the training part the force trades against the gain and
     # the damping: 0.030 N for 0.0388 N
     assert result.extended_values['effects.friction_force'] == pytest.approx(0.0388, rel=0.3)

@@ -57,8 +57,8 @@ def test_rivals_at_a_bound_structured_worse_or_no_better_are_not_said(monkeypatc
 
 
 def test_a_structured_rival_as_good_on_the_held_out_part_is_said(monkeypatch):
-    # seed 9121's joint fits (a second thermal lag, thermometer on): the sensor lag left
-    # 0.94 x the structure floor, the second lag 1.05 x, at gains 539.0 and 540.4; only
+    # seed 9121's joint fits before G56 (a second thermal lag, thermometer on): the sensor
+    # lag left 0.94 x the structure floor, the second lag 1.05 x, at gains 539.0 and 540.4; only
     # the threshold sets them apart, so the rival is said; one decisively worse is not
     monkeypatch.setattr(joint, 'rival_experiment_notes', lambda named, rivals: [
         f'experiment {named.name} / {r.name}' for r in rivals])

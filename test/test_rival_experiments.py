@@ -77,10 +77,13 @@ def test_a_dead_time_is_told_from_a_sensor_lag_and_moves_the_temperature_too(lag
 
 def test_a_second_thermal_lag_with_a_thermometer_is_said_with_its_rival(tmp_path):
     # seed 9121 of the confusion benchmark: a 1.52 s second thermal lag, rod plant, 5 Hz,
-    # thermometer on, power logged as the command, described exactly. The two lags
-    # predict the held-out part alike (joint gains 540.4 and 539.0) and sit either side
-    # of the structure floor (1.05 and 0.94 x): one is named, the other said as its
-    # rival, with the experiment that separates them best
+    # thermometer on, power logged as the command, jittered stamps, described exactly.
+    # With the inputs averaged over each grid interval (G56) both lags explain the
+    # record; the second thermal lag predicts the held-out part better (penalised joint
+    # gains 800.8 and 753.0) and is named, the sensor lag said beside it as explaining
+    # the records too. (Held a whole sample late, the steps had left the two lags either
+    # side of the structure floor, and they were said as rivals with the load step that
+    # separates them: test_diagnosis_findings and the unit test above keep that path.)
     from tca_ros.diagnosis import diagnose
     from tca_ros.params.files import dump_params, load_params
     from tca_ros.synthetic.descriptions import describe, TIGHTNESS
@@ -91,11 +94,10 @@ def test_a_second_thermal_lag_with_a_thermometer_is_said_with_its_rival(tmp_path
     rng = np.random.default_rng([9121, TIGHTNESS.index('exact')])
     dump_params(describe(truth, load_params(start), 'exact', rng), description)
     result = diagnose(path, description, progress=False)
-    assert result.verdict == 'explained' and len(result.effects) == 1, result.notes
-    named = result.effects[0]
-    rival = ({'sensor_lag', 'second_thermal_lag'} - {named}).pop()
-    said = [n for n in result.notes if n.startswith(f'{named} and {rival} are rivals')]
+    assert result.verdict == 'explained' and result.effects == ['second_thermal_lag'], \
+        result.notes
+    said = [n for n in result.notes if n.startswith('also explained, calibrated jointly: '
+                                                    'sensor_lag')]
     assert len(said) == 1, result.notes
-    # the load step is the experiment that tells them apart best (1.28 mm RMS there against
-    # 0.22 mm on the record, at about 3 x the fit's 0.43 mm residual RMS)
-    assert '; the same steps with the load raised to 2x over their middle third ' in said[0]
+    assert result.extended_values['effects.second_thermal_lag'] == pytest.approx(
+        truth.effects.second_thermal_lag, rel=0.3)

@@ -51,8 +51,9 @@ def unresolved_rivals(named, fits, lowers_rms):
     it), best first. They predict the held-out part as well; what sets them apart is
     which side of the verdict's floor each leaves its residual, a threshold on a
     statistic they may share almost equally (seed 9121, a second thermal lag with a
-    thermometer: the sensor lag's whole-record fit left 0.94 x the floor, the second
-    lag's 1.05 x, penalised held-out gains 539.0 and 540.4).
+    thermometer, its jittered steps held a sample late: the sensor lag's whole-record
+    fit left 0.94 x the floor, the second lag's 1.05 x, penalised held-out gains 539.0
+    and 540.4).
     """
     if named is None:
         return []
