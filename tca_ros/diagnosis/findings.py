@@ -269,7 +269,8 @@ def findings_rival(calibrate_with, problems, nominals, cal, candidates, found, s
     ours = deviance - added * log_n
     best = max(tests, key=lambda t: t.deviance - t.fit.n_params * log_n)
     theirs = best.deviance - best.fit.n_params * log_n
-    shifted = ', '.join(f'{n} ({z:+.1f} spreads)' for n, z, _ in cal.findings(implausible=True))
+    shifted = ', '.join(f'{name} ({z:+.1f} spreads)'
+                        for name, z, _ in cal.findings(implausible=True))
     said = (f'{" + ".join(found)} explains the records (penalised held-out gain {ours:.1f} '
             f'over the calibrated nominal), and the findings {shifted} are explained by '
             f'{best.name}, calibrated jointly (penalised held-out gain {theirs:.1f})')

@@ -95,13 +95,12 @@ def softening_on_one_load(calibrate_with, problems, nominals, cal, candidates):
     after = pooled_heldout_rmse(problems, fit.sims, channels, detrend=True)
     value = fit.values.get('effects.extra_softening', 0.0)
     gain = cal.report.values.get('actuation_gain')
-    moved = actuation_gain_z(cal)
+    moved, down = actuation_gain_z(cal), gain_took_up_softening(cal)
     named = (fit.criterion > DECISIVE_DEVIANCE and fall > 0.0 and fit.explained
-             and not fit.pinned and lowers_heldout_rms(problems, fit.sims, before)
-             and gain_took_up_softening(cal))
+             and not fit.pinned and lowers_heldout_rms(problems, fit.sims, before) and down)
     if gain is None or moved is None:
         absorbed = 'the calibrated nominal values may take up a softening on one load'
-    elif moved < -GAIN_DOWN_Z:
+    elif down:
         absorbed = (f'the calibrated actuation gain ({gain:.4g}, {moved:+.1f} prior spreads) '
                     'takes up a softening on one load')
     else:
