@@ -106,12 +106,12 @@ def second_opinions(nominal, calibrate_with, effects, values, extendeds, rounds,
     judgement = nominal.judged(effects, values, extendeds)
     cal, joint, found = nominal.cal, None, False
     named_by_findings = finding_effects(cal)
+    one_load = holds_one_load([p.record for p in nominal.problems])
     if judgement[2] == 'unexplained' and cal is not None and rounds:
         # the search's nominal refit is narrow: calibrate its first round's best
         # candidates together with the nominal parameters (joint.py)
         extra = list(named_by_findings)
-        if (holds_one_load([p.record for p in nominal.problems]) and ONE_LOAD_RIVAL not in extra
-                and gain_took_up_softening(cal)):
+        if one_load and ONE_LOAD_RIVAL not in extra and gain_took_up_softening(cal):
             # on one load a gain moved down may have taken up a softening: the search's
             # screen (a softening added on top of that gain) cannot see it (one_load.py)
             extra.append(ONE_LOAD_RIVAL)
@@ -141,7 +141,7 @@ def second_opinions(nominal, calibrate_with, effects, values, extendeds, rounds,
         elif adequate and cal.findings():  # adequate only by leaving the description
             judgement = judgement[:2] + ('unexplained', unexplained_findings(cal))
     if (judgement[2] == 'adequate' and not effects and cal is not None
-            and holds_one_load([p.record for p in nominal.problems])
+            and one_load
             and predictable_below_floor(nominal.stats, nominal.whole_stats)):
         # adequate by the practical floor while the inputs still predict the residual:
         # on one load the calibrated gain may hide a softening modulus (one_load.py)
