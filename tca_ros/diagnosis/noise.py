@@ -30,6 +30,7 @@ import math
 import numpy as np
 from scipy import stats
 
+from tca_ros.diagnosis.input_wander import fit_wander_noise, groups_of, whiten
 from tca_ros.diagnosis.regressors import nuisance_design, remove_nuisance_jointly
 
 STRUCTURE_ALPHA = 1e-3  # significance level of the residual-input test
@@ -72,11 +73,11 @@ def block_means(values, step):
 
 
 def _segment(seg):
-    """Return (residual, terms, sample rate, start or None, group or None) of a tuple.
+    """Return (residual, terms, sample rate, start, group, scale) of a tuple (None if absent).
 
-    A segment is (residual, terms, sample rate[, start[, group]]).
+    A segment is (residual, terms, sample rate[, start[, group[, scale]]]).
     """
-    return (*seg[:3], seg[3] if len(seg) > 3 else None, seg[4] if len(seg) > 4 else None)
+    return (*seg[:3], *(seg[k] if len(seg) > k else None for k in (3, 4, 5)))
 
 
 def ar_fit(e, order):
@@ -144,7 +145,7 @@ def structure_test(segments, swing, rate_hz=STRUCTURE_RATE_HZ, floor_share=STRUC
                    noise_share=STRUCTURE_NOISE_SHARE):
     """Return the StructureTest of residuals against input-driven terms.
 
-    ``segments`` is a list of (residual, terms, sample rate in Hz[, start[, group]]),
+    ``segments`` is a list of (residual, terms, sample rate in Hz[, start[, group[, scale]]]),
     one per record or per held-out run of a record
     (terms from :func:`regressors.input_terms`, same columns in every record); ``swing`` is
     the measured signal's range (channel units). The practical floor on the
@@ -163,14 +164,19 @@ def structure_test(segments, swing, rate_hz=STRUCTURE_RATE_HZ, floor_share=STRUC
     element: the held-out runs of one record) share one drift. The AR(p) noise model is
     fitted to the full regression's
     residual and both regressions are prewhitened with it (each record on its
-    own) before the F-test.
+    own) before the F-test. A 6th element ``scale`` (the response level at the
+    residual's samples, channel units; None for a measured power) marks a
+    record whose power column is the command: the noise model is then the
+    sensor noise plus the unlogged input wander of input_wander.py, and its
+    wander counts in the noise floor.
     """
-    parts, blocked = [], []
+    parts, blocked, scales = [], [], []
     segments = [_segment(seg) for seg in segments]
     native = np.concatenate([np.asarray(r, dtype=float) for r, *_ in segments])
     native_ms = float(np.mean(native ** 2)) if native.size else 0.0
     items = []
-    for residual, terms, sample_rate, start, group in segments:
+    wander = any(seg[5] is not None for seg in segments)
+    for residual, terms, sample_rate, start, group, scale in segments:
         step = max(1, int(round(sample_rate / rate_hz)))
         e = block_means(residual, step)
         blocked.append(e)
@@ -180,6 +186,7 @@ def structure_test(segments, swing, rate_hz=STRUCTURE_RATE_HZ, floor_share=STRUC
         block_rate = sample_rate / step
         parts.append((e, x))
         items.append((e.size, block_rate, start, group))
+        scales.append(np.zeros(e.size) if scale is None else block_means(scale, step))
     # the nuisance terms of each segment, zero elsewhere (shared within a group)
     parts = [(e, x, u) for (e, x), u in zip(parts, nuisance_design(items))]
     n = sum(e.size for e, _, _ in parts)
@@ -192,26 +199,13 @@ def structure_test(segments, swing, rate_hz=STRUCTURE_RATE_HZ, floor_share=STRUC
     xs = [x[:, :cols] for _, x, _ in parts]
     k = parts[0][2].shape[1]
     nuis = [u for _, _, u in parts]
-
-    def stacked(phi):
-        ew = np.concatenate([prewhiten(e, phi) for e in es])
-        nw = np.vstack([prewhiten(u, phi) for u in nuis])
-        xw = np.vstack([prewhiten(x, phi) for x in xs])
-        return ew, nw, np.column_stack([nw, xw])
-
-    phi = np.zeros(0)
-    ew, nw, fw = stacked(phi)
-    beta, *_ = np.linalg.lstsq(fw, ew, rcond=None)
-    # the AR noise model may not remember longer than MAX_NOISE_TAU_S: an AR near a
-    # unit root would call any slow model error "noise" (slow wander is the drift term)
-    rho_max = math.exp(-1.0 / (block_rate * MAX_NOISE_TAU_S))
-    for _ in range(2):  # feasible GLS: AR model from the residual, refit prewhitened
-        full = [np.column_stack([u, x]) for u, x in zip(nuis, xs)]
-        resid = np.concatenate([e - f @ beta for e, f in zip(es, full)])
-        phi, _ = ar_fit(resid, ar_order(resid))
-        if phi.sum() > rho_max:
-            phi = phi * (rho_max / phi.sum())
-        ew, nw, fw = stacked(phi)
+    noise = (_WanderWhitener(items, scales) if wander
+             else _ArWhitener(math.exp(-1.0 / (block_rate * MAX_NOISE_TAU_S))))
+    full = [np.column_stack([u, x]) for u, x in zip(nuis, xs)]
+    beta, *_ = np.linalg.lstsq(np.vstack(full), np.concatenate(es), rcond=None)
+    for _ in range(2):  # feasible GLS: noise model from the residual, refit whitened
+        noise.fit(np.concatenate([e - f @ beta for e, f in zip(es, full)]), es)
+        ew, nw, fw = noise.apply(es), noise.apply(nuis), noise.apply(full)
         beta, *_ = np.linalg.lstsq(fw, ew, rcond=None)
     q = np.linalg.matrix_rank(fw) - np.linalg.matrix_rank(nw)
     dof = ew.size - np.linalg.matrix_rank(fw)
@@ -225,22 +219,68 @@ def structure_test(segments, swing, rate_hz=STRUCTURE_RATE_HZ, floor_share=STRUC
         p = float(stats.f.sf(f, q, dof))
     # the size of the predictable part from the unwhitened least-squares projection
     # (at most the residual itself); the GLS fit above only decides significance
-    raw, *_ = np.linalg.lstsq(np.vstack([np.column_stack([u, x]) for u, x in zip(nuis, xs)]),
-                              np.concatenate(es), rcond=None)
+    raw, *_ = np.linalg.lstsq(np.vstack(full), np.concatenate(es), rcond=None)
     predictable = np.concatenate([x @ raw[k:] - np.mean(x @ raw[k:]) for x in xs])
-    wander = np.concatenate([e - np.column_stack([u, x]) @ raw for e, u, x in zip(es, nuis, xs)])
+    rest = np.concatenate([e - f @ raw for e, f in zip(es, full)])
     predictable_ms = float(np.mean(predictable ** 2))
-    # the noise by the model of the noise: the variance of the fitted AR(p) process of
-    # the block means (innovations of the full regression), plus the spread within the
-    # blocks; an offset, a drift or a wander slower than the AR memory is not in it
-    wander_ms = float(np.mean(wander ** 2))
+    # the noise by the model of the noise (an offset, a drift or a wander slower than
+    # its memory is not in it), plus the spread within the blocks
     innovation_var = ssr1 / dof if dof > 0 else 0.0
-    noise_rms = math.sqrt(innovation_var * ar_variance_gain(phi)
-                          + _within_block_ms(segments, rate_hz))
+    noise_rms = math.sqrt(noise.variance(innovation_var) + _within_block_ms(segments, rate_hz))
     floor = max(floor_share * swing, noise_share * noise_rms)
     return StructureTest(p_value=p, predictable_rms=math.sqrt(predictable_ms),
-                         noise_rms=noise_rms, floor=floor, ar_order=len(phi), n=n,
-                         swing=swing, wander_rms=math.sqrt(wander_ms))
+                         noise_rms=noise_rms, floor=floor, ar_order=noise.order, n=n,
+                         swing=swing, wander_rms=math.sqrt(float(np.mean(rest ** 2))))
+
+
+class _ArWhitener:
+    """Stationary AR(p) noise (p by BIC, memory capped): prewhitens each segment."""
+
+    def __init__(self, rho_max):
+        self.rho_max, self.phi = rho_max, np.zeros(0)
+
+    @property
+    def order(self):
+        """Return p."""
+        return len(self.phi)
+
+    def fit(self, resid, segments):
+        """Fit the AR model to the stacked residual (``segments`` give the sizes)."""
+        phi, _ = ar_fit(resid, ar_order(resid))
+        # the AR noise model may not remember longer than MAX_NOISE_TAU_S: an AR near a
+        # unit root would call any slow model error "noise" (slow wander is the drift term)
+        self.phi = phi * (self.rho_max / phi.sum()) if phi.sum() > self.rho_max else phi
+
+    def apply(self, blocks):
+        """Return the segments' rows prewhitened, stacked (first p of each dropped)."""
+        return np.concatenate([prewhiten(b, self.phi) for b in blocks], axis=0)
+
+    def variance(self, innovation_var):
+        """Return the process variance of the block means (channel units^2)."""
+        return innovation_var * ar_variance_gain(self.phi)
+
+
+class _WanderWhitener:
+    """Sensor noise plus an unlogged input wander (input_wander.py): GLS by Cholesky."""
+
+    order = 1
+
+    def __init__(self, items, scales):
+        self.groups = groups_of(items, scales)
+        self.scales = np.concatenate(scales)
+        self.noise = None
+
+    def fit(self, resid, segments):
+        """Fit the WanderNoise to the stacked residual by maximum likelihood."""
+        self.noise = fit_wander_noise(resid, self.groups, MAX_NOISE_TAU_S, self.noise)
+
+    def apply(self, blocks):
+        """Return the stacked segments' rows whitened by the covariance's Cholesky factor."""
+        return whiten(self.noise, self.groups, np.concatenate(blocks, axis=0))
+
+    def variance(self, innovation_var):
+        """Return the model's mean variance of the block means (channel units^2)."""
+        return self.noise.variance(self.scales)
 
 
 def ar_variance_gain(phi, terms=2000):
@@ -282,7 +322,11 @@ def heldout_deviance_gain(pairs, rate_hz=STRUCTURE_RATE_HZ):
     linear drift) are noise and removed, the rest is
     block-averaged to about ``rate_hz`` and
     AR(p) (p by BIC, memory capped at MAX_NOISE_TAU_S) fitted to the
-    candidate's residual; both residuals are prewhitened with it. Then
+    candidate's residual; both residuals are prewhitened with it. An unlogged
+    input wander (a record whose power is the command, input_wander.py) is in
+    both residuals alike: it is left to this stationary model (the gain is a
+    comparison on the same data; the wander's likelihood fit would cost a
+    second per candidate). Then
 
         D = sum_channels n_c ln(S_base,c / S_cand,c)
 
@@ -298,8 +342,7 @@ def heldout_deviance_gain(pairs, rate_hz=STRUCTURE_RATE_HZ):
         for r0, r1, sample_rate, *rest in channel:
             if r0 is None or r1 is None:
                 return -math.inf, count
-            start = rest[0] if rest else None
-            group = rest[1] if len(rest) > 1 else None
+            start, group = (list(rest) + [None] * 2)[:2]
             step = max(1, int(round(sample_rate / rate_hz)))
             block_rate = sample_rate / step
             base.append(block_means(r0, step))
@@ -311,13 +354,11 @@ def heldout_deviance_gain(pairs, rate_hz=STRUCTURE_RATE_HZ):
         if joined.size < 12 or not np.all(np.isfinite(joined)):
             return (-math.inf if joined.size and not np.all(np.isfinite(joined)) else 0.0,
                     count)
-        phi, _ = ar_fit(joined, ar_order(joined))
-        rho_max = math.exp(-1.0 / (block_rate * MAX_NOISE_TAU_S))
-        if phi.sum() > rho_max:
-            phi = phi * (rho_max / phi.sum())
-        s0 = sum(float(np.sum(prewhiten(e, phi) ** 2)) for e in base)
-        s1 = sum(float(np.sum(prewhiten(e, phi) ** 2)) for e in cand)
-        n = sum(max(e.size - len(phi), 0) for e in cand)
+        noise = _ArWhitener(math.exp(-1.0 / (block_rate * MAX_NOISE_TAU_S)))
+        noise.fit(joined, cand)
+        s0 = float(np.sum(noise.apply(base) ** 2))
+        s1 = float(np.sum(noise.apply(cand) ** 2))
+        n = sum(max(e.size - noise.order, 0) for e in cand)
         if not (s0 > 0.0 and s1 > 0.0 and math.isfinite(s0)):
             return -math.inf, count
         total += n * math.log(s0 / s1)

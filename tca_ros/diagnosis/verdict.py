@@ -14,6 +14,7 @@ from tca_ros.diagnosis.noise import heldout_deviance_gain, structure_test
 from tca_ros.diagnosis.regressors import input_terms_in_runs, remove_nuisance_jointly
 from tca_ros.diagnosis.verdict_text import confirmed_sentence, verdict_sentence
 from tca_ros.model.thermal import thermal_time_constant
+from tca_ros.records.record import power_is_command
 
 UNITS = {'displacement': 'm', 'temperature': 'K'}
 
@@ -21,6 +22,20 @@ UNITS = {'displacement': 'm', 'temperature': 'K'}
 def gain(before, after):
     """Return 100 (1 - after / before) (%), the relative RMSE reduction."""
     return 100.0 * (1.0 - after / before) if before > 0.0 else 0.0
+
+
+def wander_scale(problem, channel, prediction, params=None):
+    """Return the response level an unlogged power wander scales, or None (channel units).
+
+    None when ``problem``'s record logs the power delivered; else the predicted
+    displacement (m) or temperature rise (K) over the record
+    (noise.structure_test, input_wander.py).
+    """
+    if not power_is_command(problem.record):
+        return None
+    if channel == 'temperature':
+        return prediction - (params or problem.params).thermal.ambient_temperature
+    return prediction
 
 
 def pooled_heldout_rmse(problems, sims, channels, detrend=False):
@@ -94,9 +109,11 @@ def channel_stats(problems, sims, params=None, whole=False):
             tau = thermal_time_constant(par.fiber, par.thermal)
             rise = sim.temperature - par.thermal.ambient_temperature
             terms = input_terms_in_runs(predicted, rise, r.power, p.sample_rate, tau, runs)
+            level = wander_scale(p, c, predicted, par)
             for (a, b), x in zip(runs, terms):
                 segments.append((measured[a:b] - predicted[a:b], x, p.sample_rate,
-                                 float(r.time[a] - r.time[0]), id(p)))
+                                 float(r.time[a] - r.time[0]), id(p),
+                                 None if level is None else level[a:b]))
             swing = max(swing, float(np.percentile(measured, 99.0)
                                      - np.percentile(measured, 1.0)))
             index = np.arange(r.time.size) if whole else p.full_heldout_index

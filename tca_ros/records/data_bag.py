@@ -152,7 +152,9 @@ def read_bag_record(path, sample_rate=None, tca='', mass_kg=None, load=None,
             t_temp, kind = on_clock(samples), 'receive time'
         _check_increasing(t_temp, 'temperature', kind, path)
         temp = np.interp(grid, t_temp, np.array([s[2] for s in samples]))
-    meta = {'tca': tca, 'mass_kg': mass, 'sample_rate_hz': rate}
+    meta = {'tca': tca, 'mass_kg': mass, 'sample_rate_hz': rate,
+            # the command alone: what the node delivered is not in the bag
+            'power_logged': 'measured' if power_topic == 'power' else 'command'}
     return Record(time=grid, power=power, load=load_series,
                   displacement=np.interp(grid, t_x, x), temperature=temp, meta=meta,
                   source=str(path))

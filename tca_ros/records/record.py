@@ -32,6 +32,19 @@ VALUE_RANGES = {'power': (0.0, MAX_POWER_W, 'W'), 'power_cmd': (0.0, MAX_POWER_W
 TIME, DISPLACEMENT = 'time', 'displacement'  # column names quoted in errors
 
 
+POWER_LOGGED = ('measured', 'command')  # header power_logged: what the power column is
+
+
+def power_is_command(record):
+    """Return True when ``record``'s power column is the command, not the power delivered.
+
+    Header ``power_logged: command``: the supply was told the power but it was
+    not measured, so the delivered power may wander unlogged (a few %).
+    Default ``measured``.
+    """
+    return str(record.meta.get('power_logged', POWER_LOGGED[0])).strip() == POWER_LOGGED[1]
+
+
 class DataError(ValueError):
     """A measured record is malformed; the message names file, row and column."""
 

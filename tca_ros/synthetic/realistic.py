@@ -235,7 +235,8 @@ def realistic_case(seed, hidden, directory, duration=240.0, mass=None, take=0, *
     record = Record(time=stamps, power=logged, load=load, displacement=x - x[0],
                     temperature=temperature,
                     meta={'tca': os.path.basename(start_path), 'mass_kg': round(mass, 6),
-                          'sample_rate_hz': rate})
+                          'sample_rate_hz': rate,
+                          **({'power_logged': 'command'} if cond['nominal_power'] else {})})
     path = os.path.join(directory, f'record_{seed}{_take_suffix(take)}.csv')
     write_csv_record(record, path)
     return path, start_path

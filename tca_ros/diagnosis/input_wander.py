@@ -1,0 +1,169 @@
+"""A noise model for a record whose power column is the command, not the power delivered.
+
+A supply that is commanded but not measured delivers P (1 + w(t)), with w a
+slow relative wander of a few per cent (regulation, contact resistance, the
+heater's resistance with temperature). The thermal lag passes it on: the
+response moves by about its own level times w. So the residual of a correct
+model is
+
+    e(t) = s(t) w(t) + v(t)
+
+with s(t) the response's level (the predicted stroke, or the predicted
+temperature rise) and v(t) the sensor's noise. That residual follows the
+inputs (it is zero when the muscle is cold and grows with the stroke), so a
+test that takes the noise as stationary calls it model error. Here both
+parts are Gaussian processes in time: w an Ornstein-Uhlenbeck process
+(relative std sigma_w, correlation time tau_w), v an exponentially
+correlated one (std sigma_v, correlation time tau_v up to the stationary
+model's memory cap). The four are estimated by maximum likelihood on the
+residual; generalised least squares then whitens by the Cholesky factor of
+the covariance (one block per record: its held-out runs share w and v), which
+is what the AR prewhitening of noise.py does for a stationary noise.
+
+Only records whose header says ``power_logged: command`` get this model: on a
+measured power there is no unlogged input, and the wander would absorb part of
+a real effect (a static nonlinearity looks like a wander that follows the
+power level).
+"""
+from dataclasses import dataclass
+import math
+
+import numpy as np
+from scipy import linalg, optimize
+
+# relative std of the delivered power's wander (-): a bench supply holds its power
+# within a few per cent; more, and the wander would take up a real effect's residual
+WANDER_SHARE_RANGE = (1e-4, 0.05)
+WANDER_TAU_RANGE_S = (2.0, 120.0)  # s, its correlation time
+SENSOR_TAU_MIN_S = 0.05  # s, shortest correlation time of the sensor noise
+JITTER = 1e-9  # relative diagonal loading of the covariance (numerical)
+
+
+@dataclass
+class WanderNoise:
+    """Sensor noise plus an unlogged relative wander of the input (channel units, s)."""
+
+    sigma_v: float  # std of the sensor noise of the block means (channel units)
+    tau_v: float  # s, its correlation time
+    sigma_w: float  # relative std of the delivered power's wander (-)
+    tau_w: float  # s, its correlation time
+
+    def covariance(self, group):
+        """Return the covariance (channel units^2) of a WanderGroup's block means."""
+        cov = self.sigma_v ** 2 * group.decay(self.tau_v)
+        cov += group.outer * (self.sigma_w ** 2 * group.decay(self.tau_w))
+        cov[np.diag_indices_from(cov)] *= 1.0 + JITTER
+        return cov
+
+    def variance(self, scale):
+        """Return the mean variance (channel units^2) of the residual over ``scale``."""
+        return self.sigma_v ** 2 + self.sigma_w ** 2 * float(np.mean(np.square(scale)))
+
+
+class WanderGroup:
+    """The block means of one record's segments: where they are and how loud."""
+
+    def __init__(self, times, scale, index):
+        """Keep ``times`` (s, block centres since the record's zero), ``scale`` (the
+        response level at the blocks, channel units) and ``index`` (their positions
+        in the stacked vector)."""
+        self.times, self.scale, self.index = times, scale, index
+        self.outer = np.outer(scale, scale)
+        # the lags on a grid of the shortest block interval: exp(-lag / tau) is then
+        # a power of one number per lag, looked up rather than computed per entry
+        lag = np.abs(times[:, None] - times[None, :])
+        step = float(np.min(np.diff(np.sort(times)))) if times.size > 1 else 1.0
+        steps = lag / step if step > 0.0 else lag
+        on_grid = step > 0.0 and float(np.max(np.abs(steps - np.rint(steps)))) < 1e-6
+        self._lag, self._step = (np.rint(steps).astype(int), step) if on_grid else (lag, None)
+
+    def decay(self, tau):
+        """Return exp(-|t_i - t_j| / tau) (-) for the blocks' times, tau in s."""
+        if self._step is None:
+            return np.exp(-self._lag / tau)
+        return np.exp(-np.arange(self._lag.max() + 1) * (self._step / tau))[self._lag]
+
+
+def groups_of(items, scales):
+    """Return [WanderGroup] of stacked segments.
+
+    ``items``: (size, block rate in Hz, start in s or None, group or None) per
+    segment, as regressors.nuisance_design; ``scales``: the block means of the
+    response level per segment. Segments of one group are one record's runs.
+    """
+    out, at = {}, 0
+    for i, ((size, rate, start, group), scale) in enumerate(zip(items, scales)):
+        key = ('own', i) if group is None else ('group', group)
+        t0 = 0.0 if start is None else float(start)
+        t = t0 + (np.arange(size) + 0.5) / rate
+        entry = out.setdefault(key, ([], [], []))
+        entry[0].append(t)
+        entry[1].append(np.asarray(scale, dtype=float)[:size])
+        entry[2].append(np.arange(at, at + size))
+        at += size
+    return [WanderGroup(np.concatenate(t), np.concatenate(s), np.concatenate(ix))
+            for t, s, ix in out.values()]
+
+
+_STARTS = {}  # (blocks, first time) -> last fit: a warm start for the next
+_MAX_STARTS = 256
+
+
+def fit_wander_noise(resid, groups, max_sensor_tau, start=None):
+    """Return the maximum-likelihood WanderNoise of the stacked residual ``resid``.
+
+    ``groups`` from :func:`groups_of`; ``max_sensor_tau`` (s) caps the sensor
+    noise's memory (a longer one would call slow model error noise); ``start``
+    a WanderNoise to start from (default: the last fit on the same blocks).
+    Bounded (L-BFGS-B on logarithms; the wander within WANDER_SHARE_RANGE).
+    """
+    resid = np.asarray(resid, dtype=float)
+    rms = math.sqrt(max(float(np.mean(resid ** 2)) if resid.size else 0.0, 1e-300))
+    key = (resid.size, float(groups[0].times[0]))
+    start = start or _STARTS.get(key) or WanderNoise(rms / 2.0, 1.0, 0.01, 10.0)
+    bounds = [(math.log(rms * 1e-3), math.log(rms * 10.0)),
+              (math.log(SENSOR_TAU_MIN_S), math.log(max(max_sensor_tau, SENSOR_TAU_MIN_S))),
+              tuple(math.log(v) for v in WANDER_SHARE_RANGE),
+              tuple(math.log(v) for v in WANDER_TAU_RANGE_S)]
+    x0 = [min(max(math.log(v), lo), hi) for v, (lo, hi) in zip(
+        (start.sigma_v, start.tau_v, start.sigma_w, start.tau_w), bounds)]
+
+    def cost(x):
+        logdet, quad = _logdet_and_quadratic(WanderNoise(*np.exp(x)), groups, resid)
+        return 0.5 * (logdet + quad)
+
+    best = optimize.minimize(cost, x0, method='L-BFGS-B', bounds=bounds,
+                             options={'maxiter': 40, 'ftol': 1e-7})
+    x = best.x if np.isfinite(best.fun) else np.array(x0)
+    fitted = WanderNoise(*(float(v) for v in np.exp(x)))
+    if len(_STARTS) >= _MAX_STARTS:
+        _STARTS.clear()
+    _STARTS[key] = fitted
+    return fitted
+
+
+def _logdet_and_quadratic(noise, groups, resid):
+    """Return (log det C, r^T C^-1 r) of the residual under ``noise`` (inf if singular)."""
+    logdet, quad = 0.0, 0.0
+    for g in groups:
+        try:
+            chol = linalg.cholesky(noise.covariance(g), lower=True)
+        except linalg.LinAlgError:
+            return math.inf, math.inf
+        z = linalg.solve_triangular(chol, resid[g.index], lower=True)
+        logdet += 2.0 * float(np.sum(np.log(np.diag(chol))))
+        quad += float(z @ z)
+    return logdet, quad
+
+
+def whiten(noise, groups, columns):
+    """Return ``columns`` (stacked vector or matrix) whitened by the noise's Cholesky factor.
+
+    Per group the rows are L^-1 rows with L L^T the group's covariance; the
+    groups are stacked in the order of ``groups``.
+    """
+    out = []
+    for g in groups:
+        chol = linalg.cholesky(noise.covariance(g), lower=True)
+        out.append(linalg.solve_triangular(chol, columns[g.index], lower=True))
+    return np.concatenate(out, axis=0)
