@@ -48,14 +48,31 @@ def _row(paths, config, model):
             result.explanation)
 
 
+def _with_header(path, directory, key, value):
+    """Return the path of a temporary copy of the CSV ``path`` with ``# key: value`` added."""
+    os.makedirs(directory, exist_ok=True)
+    with open(path, encoding='utf-8') as fh:
+        lines = fh.readlines()
+    at = next(i for i, line in enumerate(lines) if not line.startswith('#'))
+    copy = os.path.join(directory, os.path.basename(path))
+    with open(copy, 'w', encoding='utf-8') as fh:
+        fh.writelines(lines[:at] + [f'# {key}: {value}\n'] + lines[at:])
+    return copy
+
+
 def main(argv=None):
     """Run the benchmark; return the exit status."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument('--model', default='cst', choices=('rod', 'cst', 'love'))
     parser.add_argument('--muscles', nargs='+', default=list(MUSCLES), choices=MUSCLES)
     parser.add_argument('--width', type=int, default=400, help='verdict sentence characters')
+    parser.add_argument('--power-logged', default='command', choices=('command', 'measured'),
+                        help="what the records' power column is (the READMEs: the nominal "
+                             'power times the logged on/off signal, so the command); the '
+                             'records are read from a temporary copy with that header')
     args = parser.parse_args(argv)
-    print(f'model {args.model}; all records of each muscle diagnosed together')
+    print(f'model {args.model}; all records of each muscle diagnosed together; power '
+          f'logged as {args.power_logged}')
     print(f'{"muscle":<14s} {"start":<12s} {"verdict":<12s} {"named":<20s} {"helpful":<20s} '
           f'{"held-out vs repeats":<20s} {"CPU s":>6s}  findings (z)')
     with tempfile.TemporaryDirectory() as work:
@@ -64,6 +81,8 @@ def main(argv=None):
             if not paths:
                 print(f'{name:<14s} no records under {REAL}; skipped')
                 continue
+            paths = [_with_header(p, os.path.join(work, name), 'power_logged',
+                                  args.power_logged) for p in paths]
             params = describe_muscle(MUSCLES[name], load_thread_presets()).params
             described = os.path.join(work, f'{name}.yaml')
             dump_params(params, described)

@@ -6,7 +6,7 @@ generator's ranges) but still physical. Coil contact is special: its parameter
 acts only once the stroke reaches the stop, so its screening starts are placed
 where the stop would cut the nominal peak contraction of the record.
 """
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 import math
 
 from tca_ros.model.effects import CATALOGUE, true_ambient
@@ -115,6 +115,9 @@ class Candidate:
     name: str
     spaces: tuple  # of ParameterSpace
     starts: tuple  # of tuples of values, one per space
+    #: {dotted name: (low, high, what)}: a fitted value outside (schema units) is
+    #: contradicted by a measurement (``what`` names it)
+    measured: dict = field(default_factory=dict)
 
     @property
     def n_params(self):
@@ -148,14 +151,21 @@ def contact_space(params, model, load0, peak_contraction, measured_peak=None):
     return Candidate('coil_contact', (space,), tuple(starts))
 
 
+#: K: a thermometer's reading at rest is the ambient within this (a thermocouple's or an
+#: infrared camera's stated accuracy is 1-2 K; its noise averages out over the window)
+THERMOMETER_TOLERANCE_K = 1.0
+
+
 def build_candidates(params, model, load0, peak_contraction, names=None,
                      initial_temperature=None, measured_peak=None):
     """Return the Candidates of the catalogue (all, or ``names``), catalogue order.
 
     A candidate without starts (coil contact that cannot bind in this record) is
     kept with an empty ``starts`` and reported as not identifiable. When the
-    measured ``initial_temperature`` (degC, the record starts at ambient) is given,
-    its difference from the nominal ambient is one more ambient_offset start;
+    measured ``initial_temperature`` (degC, the records start at rest at ambient) is
+    given, its difference from the nominal ambient is one more ambient_offset start,
+    and an offset fitted more than THERMOMETER_TOLERANCE_K from it is contradicted
+    (``Candidate.measured``, :func:`contradicted_by_measurement`);
     ``peak_contraction`` and ``measured_peak`` (m) are the nominal and measured
     peak contractions of the training part (see ``contact_space``).
     """
@@ -168,14 +178,21 @@ def build_candidates(params, model, load0, peak_contraction, names=None,
             continue
         spaces = tuple(_SPACES[d][0] for d in dotted)
         grids = [_SPACES[d][1] for d in dotted]
+        measured = {}
         if name == 'ambient_offset' and initial_temperature is not None:
+            # the fibre of a record that starts at rest is at the ambient: the thermometer
+            # measures the offset from the described one (a start, and the range a fitted
+            # offset must stay in to be the cause: contradicted_by_measurement)
             space = spaces[0]
             offset = initial_temperature - params.thermal.ambient_temperature
             grids = [tuple(grids[0]) + (min(max(offset, space.low), space.high),)]
+            measured = {space.name: (offset - THERMOMETER_TOLERANCE_K,
+                                     offset + THERMOMETER_TOLERANCE_K,
+                                     f'the thermometer at rest ({initial_temperature:.4g} degC)')}
         starts = [()]
         for grid in grids:
             starts = [s + (v,) for s in starts for v in grid]
-        out.append(Candidate(name, spaces, tuple(starts)))
+        out.append(Candidate(name, spaces, tuple(starts), measured))
     return out
 
 
@@ -237,6 +254,25 @@ def absorbed_candidates(candidates, recalibration):
         if space.high / space.low >= (1.0 - 1e-9) * high / low:
             absorbed.append(name)
     return [c for c in candidates if c.name not in absorbed], absorbed
+
+
+def contradicted_by_measurement(effects, values, candidates):
+    """Return [(dotted name, value, low, high, what)] of found values a measurement refutes.
+
+    A fitted ambient offset more than THERMOMETER_TOLERANCE_K from what the
+    thermometer read at rest (``Candidate.measured``) is not the ambient: it
+    stands in for another cause (the intercept of a straight heat loss laid
+    through radiation's curved one).
+    """
+    out = []
+    for c in candidates:
+        if c.name not in effects:
+            continue
+        for name, (low, high, what) in c.measured.items():
+            value = values.get(name)
+            if value is not None and not low <= value <= high:
+                out.append((name, value, low, high, what))
+    return out
 
 
 BOUND_SHARE = 0.005  # a fitted value within this share of its range from a bound is at it

@@ -9,7 +9,7 @@ part shows only estimation error), the findings' effects tested as their cause
 """
 from dataclasses import dataclass
 
-from tca_ros.calibration.candidates import parameters_at_bounds
+from tca_ros.calibration.candidates import contradicted_by_measurement, parameters_at_bounds
 from tca_ros.diagnosis.findings import explain_findings, finding_effects, findings_rival, \
     found_text, unexplained_findings
 from tca_ros.diagnosis.joint import beats_nominal, family_rivals, joint_extension, \
@@ -90,6 +90,35 @@ def run_search(nominal, notes):
     return effects, values, extendeds, rounds
 
 
+def at_bounds(judgement, effects, values, candidates):
+    """Return ``judgement`` (RMSE, stats, verdict, sentence), 'unexplained' if no cause.
+
+    An 'explained' whose effects have a parameter at the end of its physical
+    range (candidates.parameters_at_bounds), or one a measurement refutes (an
+    ambient offset the thermometer at rest does not read,
+    candidates.contradicted_by_measurement), is no explanation: the effect
+    stands in for another cause.
+    """
+    if judgement[2] != 'explained':
+        return judgement
+    pinned = parameters_at_bounds(effects, values, candidates)
+    if pinned:
+        return judgement[:2] + ('unexplained', 'the effects found leave no structure, but '
+                                + ', '.join(f'{n} = {v:.4g} {SPECS[n].unit}'
+                                            for n, v, _ in pinned)
+                                + ' sits at the end of its physical range: the data ask for '
+                                'more than the effect can be, so it stands in for a cause '
+                                'that is not in the catalogue and is not named')
+    refuted = contradicted_by_measurement(effects, values, candidates)
+    if refuted:
+        return judgement[:2] + ('unexplained', 'the effects found leave no structure, but '
+                                + ', '.join(f'{n} = {v:.4g} {SPECS[n].unit} is outside '
+                                            f'{lo:.4g} to {hi:.4g} from {what}'
+                                            for n, v, lo, hi, what in refuted)
+                                + ': it stands in for another cause and is not named')
+    return judgement
+
+
 def second_opinions(nominal, calibrate_with, effects, values, extendeds, rounds, notes):
     """Return (effects, values, extended sims, judgement, found) after the search's checks.
 
@@ -103,7 +132,10 @@ def second_opinions(nominal, calibrate_with, effects, values, extendeds, rounds,
     with a parameter at the end of its range is not one; a single effect of a
     family, or a pair, gets its rivals said (joint.family_rivals).
     """
-    judgement = nominal.judged(effects, values, extendeds)
+    # an explanation with a parameter at the end of its range is none: the joint stage
+    # and the findings' effects get their chance at what it stands in for
+    judgement = at_bounds(nominal.judged(effects, values, extendeds), effects, values,
+                          nominal.candidates)
     cal, joint, found = nominal.cal, None, False
     named_by_findings = finding_effects(cal)
     one_load = holds_one_load([p.record for p in nominal.problems])
@@ -151,15 +183,8 @@ def second_opinions(nominal, calibrate_with, effects, values, extendeds, rounds,
         if taken is not None:
             joint = taken
             effects, values, extendeds, judgement = nominal.adopted(taken)
-    rmse, stats, verdict, explanation = judgement
-    pinned = parameters_at_bounds(effects, values, nominal.candidates)
-    if verdict == 'explained' and pinned:
-        verdict = 'unexplained'
-        explanation = ('the effects found leave no structure, but '
-                       + ', '.join(f'{n} = {v:.4g} {SPECS[n].unit}' for n, v, _ in pinned)
-                       + ' sits at the end of its physical range: the data ask for more '
-                       'than the effect can be, so it stands in for a cause that is not in '
-                       'the catalogue and is not named')
+    rmse, stats, verdict, explanation = at_bounds(judgement, effects, values,
+                                                  nominal.candidates)
     if (verdict == 'explained' and joint is None and cal is not None and named_by_findings
             and not set(effects) & set(named_by_findings)):
         # the search explained the records with effects none of the findings stand for:

@@ -376,8 +376,8 @@ def joint_notes(joint, rivals, searched, near=()):
     """
     left = f' with {" + ".join(searched)}' if searched else ''
     pair = len(joint.effects) > 1
-    notes = [f'the search left structure{left}; {joint.name}, calibrated jointly with all '
-             'the nominal parameters on the training part, '
+    notes = [f'the search left the records unexplained{left}; {joint.name}, calibrated '
+             'jointly with all the nominal parameters on the training part, '
              f'{"explain" if pair else "explains"} it (docs/diagnosis_method.md, '
              f'"Joint calibration": {"pairs" if pair else "singles"})']
     if rivals:

@@ -279,7 +279,11 @@ class _WanderWhitener:
         return whiten(self.noise, self.groups, np.concatenate(blocks, axis=0))
 
     def variance(self, innovation_var):
-        """Return the model's mean variance of the block means (channel units^2)."""
+        """Return the model's mean variance of the block means (channel units^2).
+
+        The wander counts: on a held-out part a few of its correlation times
+        long, its chance projection on the input terms is about its whole size.
+        """
         return self.noise.variance(self.scales)
 
 

@@ -11,6 +11,7 @@ import numpy as np
 
 from tca_ros.calibration.candidates import build_candidates, recalibration_spaces
 from tca_ros.calibration.physical_priors import prior_spreads
+from tca_ros.calibration.warm_start import starts_warm
 from tca_ros.diagnosis.fitting import FitProblem
 from tca_ros.diagnosis.holdout import DEFAULT_VALIDATION
 from tca_ros.records.data import DataError, read_record
@@ -120,7 +121,10 @@ def candidates_of(records, params, model, problems, nominals):
     """Return the catalogue candidates with data-driven starts from the records."""
     initial = None
     temps = [r.temperature for r in records if r.temperature is not None]
-    if temps and len(temps) == len(records):
+    ambient = params.thermal.ambient_temperature
+    # a thermometer at rest reads the ambient; a record that starts warm does not
+    if temps and len(temps) == len(records) and not any(starts_warm(r, ambient)
+                                                        for r in records):
         initial = float(np.median(np.concatenate([
             r.temperature[r.time <= r.time[0] + INITIAL_WINDOW_S] for r in records])))
     peaks = [float(np.percentile(r.displacement[p.full_train_mask], PEAK_PERCENTILE))

@@ -1,9 +1,11 @@
-"""A record whose power column is the command: the unlogged wander of the delivered power."""
+"""What the bench says of its inputs: a power logged as the command, a thermometer at rest."""
 import math
 
 import numpy as np
 import pytest
 
+from tca_ros.calibration.candidates import build_candidates, contradicted_by_measurement, \
+    THERMOMETER_TOLERANCE_K
 from tca_ros.diagnosis import diagnose
 from tca_ros.diagnosis.fitting import FitProblem, TRAIN_FRACTION
 from tca_ros.diagnosis.holdout import choose_validation
@@ -100,3 +102,39 @@ def test_the_power_logged_header_names_what_the_power_column_is(tmp_path):
     write_csv_record(record, bad)
     assert not power_is_command(read_record(bad))
     assert math.isfinite(float(read_record(bad).power.max()))
+
+
+def test_an_ambient_offset_the_thermometer_at_rest_did_not_read_is_contradicted():
+    # the fibre of a record that starts at rest is at the ambient: an offset fitted more
+    # than the thermometer's tolerance from its reading is no ambient offset
+    params = load_params('free_stroke', model='cst')
+    ambient = params.thermal.ambient_temperature
+    free = build_candidates(params, 'cst', 0.2, 5e-3)
+    read = build_candidates(params, 'cst', 0.2, 5e-3, initial_temperature=ambient + 2.5)
+    offset = {c.name: c for c in read}['ambient_offset']
+    assert 2.5 in [s[0] for s in offset.starts]
+    tol = THERMOMETER_TOLERANCE_K
+    for value, refuted in ((2.5 + 0.9 * tol, False), (2.5 - 1.1 * tol, True), (-3.0, True)):
+        found = contradicted_by_measurement(['ambient_offset'],
+                                            {'effects.ambient_offset': value}, read)
+        assert bool(found) == refuted, (value, found)
+    assert 'thermometer at rest' in found[0][4]
+    # without a thermometer nothing is measured, and an effect not found is not judged
+    assert not contradicted_by_measurement(['ambient_offset'],
+                                           {'effects.ambient_offset': -3.0}, free)
+    assert not contradicted_by_measurement([], {'effects.ambient_offset': -3.0}, read)
+
+
+def test_a_curved_heat_loss_is_not_an_ambient_offset_the_thermometer_contradicts(tmp_path):
+    # Seed 9112: radiation (emissivity 0.71), a thermometer, 2 Hz, the power logged as the
+    # command. The calibration takes up the curved heat loss with a linear one (+5.8
+    # spreads), and on top of it an ambient offset of +3.1 K fitted the held-out part best,
+    # while the thermometer read 24.9 degC at rest against a described 25 degC. So the
+    # offset is no explanation, and the joint stage calibrates radiation with the nominal
+    # parameters: it explains the record.
+    record, truth, description = _bench_record(tmp_path, 9112, ['radiation'])
+    result = diagnose(record, description, progress=False)
+    assert result.effects == ['radiation'] and result.verdict == 'explained', result.notes
+    assert 'ambient_offset' not in result.helpful
+    assert result.extended_values['effects.emissivity'] == pytest.approx(
+        load_params(truth).effects.emissivity, rel=0.2)
