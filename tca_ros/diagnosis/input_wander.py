@@ -61,12 +61,14 @@ class WanderNoise:
 
 
 class WanderGroup:
-    """The block means of one record's segments: where they are and how loud."""
+    """The block means of one record's segments: where they are and how loud.
 
-    def __init__(self, times, scale, index):
-        """Keep ``times`` (s, block centres since the record's zero), ``scale`` (the
-        response level at the blocks, channel units) and ``index`` (their positions
-        in the stacked vector)."""
+    ``times`` (s): block centres since the record's zero; ``scale``: the response
+    level at the blocks (channel units); ``index``: their positions in the stacked
+    vector of every segment's block means.
+    """
+
+    def __init__(self, times, scale, index):  # noqa: D107 -- documented on the class
         self.times, self.scale, self.index = times, scale, index
         self.outer = np.outer(scale, scale)
         # the lags on a grid of the shortest block interval: exp(-lag / tau) is then
