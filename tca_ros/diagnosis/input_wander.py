@@ -107,22 +107,18 @@ def groups_of(items, scales):
             for t, s, ix in out.values()]
 
 
-_STARTS = {}  # (blocks, first time) -> last fit: a warm start for the next
-_MAX_STARTS = 256
-
-
 def fit_wander_noise(resid, groups, max_sensor_tau, start=None):
     """Return the maximum-likelihood WanderNoise of the stacked residual ``resid``.
 
     ``groups`` from :func:`groups_of`; ``max_sensor_tau`` (s) caps the sensor
     noise's memory (a longer one would call slow model error noise); ``start``
-    a WanderNoise to start from (default: the last fit on the same blocks).
+    a WanderNoise to start from (default: half the residual's variance each to the
+    sensor and to a 1 %, 10 s wander).
     Bounded (L-BFGS-B on logarithms; the wander within WANDER_SHARE_RANGE).
     """
     resid = np.asarray(resid, dtype=float)
     rms = math.sqrt(max(float(np.mean(resid ** 2)) if resid.size else 0.0, 1e-300))
-    key = (resid.size, float(groups[0].times[0]))
-    start = start or _STARTS.get(key) or WanderNoise(rms / 2.0, 1.0, 0.01, 10.0)
+    start = start or WanderNoise(rms / math.sqrt(2.0), 1.0, 0.01, 10.0)
     bounds = [(math.log(rms * 1e-3), math.log(rms * 10.0)),
               (math.log(SENSOR_TAU_MIN_S), math.log(max(max_sensor_tau, SENSOR_TAU_MIN_S))),
               tuple(math.log(v) for v in WANDER_SHARE_RANGE),
@@ -137,11 +133,7 @@ def fit_wander_noise(resid, groups, max_sensor_tau, start=None):
     best = optimize.minimize(cost, x0, method='L-BFGS-B', bounds=bounds,
                              options={'maxiter': 40, 'ftol': 1e-7})
     x = best.x if np.isfinite(best.fun) else np.array(x0)
-    fitted = WanderNoise(*(float(v) for v in np.exp(x)))
-    if len(_STARTS) >= _MAX_STARTS:
-        _STARTS.clear()
-    _STARTS[key] = fitted
-    return fitted
+    return WanderNoise(*(float(v) for v in np.exp(x)))
 
 
 def _logdet_and_quadratic(noise, groups, resid):

@@ -204,7 +204,7 @@ def structure_test(segments, swing, rate_hz=STRUCTURE_RATE_HZ, floor_share=STRUC
     full = [np.column_stack([u, x]) for u, x in zip(nuis, xs)]
     beta, *_ = np.linalg.lstsq(np.vstack(full), np.concatenate(es), rcond=None)
     for _ in range(2):  # feasible GLS: noise model from the residual, refit whitened
-        noise.fit(np.concatenate([e - f @ beta for e, f in zip(es, full)]), es)
+        noise.fit(np.concatenate([e - f @ beta for e, f in zip(es, full)]))
         ew, nw, fw = noise.apply(es), noise.apply(nuis), noise.apply(full)
         beta, *_ = np.linalg.lstsq(fw, ew, rcond=None)
     q = np.linalg.matrix_rank(fw) - np.linalg.matrix_rank(nw)
@@ -244,8 +244,8 @@ class _ArWhitener:
         """Return p."""
         return len(self.phi)
 
-    def fit(self, resid, segments):
-        """Fit the AR model to the stacked residual (``segments`` give the sizes)."""
+    def fit(self, resid):
+        """Fit the AR model to the stacked residual of every segment."""
         phi, _ = ar_fit(resid, ar_order(resid))
         # the AR noise model may not remember longer than MAX_NOISE_TAU_S: an AR near a
         # unit root would call any slow model error "noise" (slow wander is the drift term)
@@ -270,7 +270,7 @@ class _WanderWhitener:
         self.scales = np.concatenate(scales)
         self.noise = None
 
-    def fit(self, resid, segments):
+    def fit(self, resid):
         """Fit the WanderNoise to the stacked residual by maximum likelihood."""
         self.noise = fit_wander_noise(resid, self.groups, MAX_NOISE_TAU_S, self.noise)
 
@@ -359,7 +359,7 @@ def heldout_deviance_gain(pairs, rate_hz=STRUCTURE_RATE_HZ):
             return (-math.inf if joined.size and not np.all(np.isfinite(joined)) else 0.0,
                     count)
         noise = _ArWhitener(math.exp(-1.0 / (block_rate * MAX_NOISE_TAU_S)))
-        noise.fit(joined, cand)
+        noise.fit(joined)
         s0 = float(np.sum(noise.apply(base) ** 2))
         s1 = float(np.sum(noise.apply(cand) ** 2))
         n = sum(max(e.size - noise.order, 0) for e in cand)
