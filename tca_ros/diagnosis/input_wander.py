@@ -150,14 +150,16 @@ def _logdet_and_quadratic(noise, groups, resid):
     return logdet, quad
 
 
-def whiten(noise, groups, columns):
-    """Return ``columns`` (stacked vector or matrix) whitened by the noise's Cholesky factor.
+def cholesky_factors(noise, groups):
+    """Return the lower Cholesky factor L of each group's covariance under ``noise``."""
+    return [linalg.cholesky(noise.covariance(g), lower=True) for g in groups]
 
-    Per group the rows are L^-1 rows with L L^T the group's covariance; the
-    groups are stacked in the order of ``groups``.
+
+def whiten(factors, groups, columns):
+    """Return ``columns`` (stacked vector or matrix) whitened by the groups' ``factors``.
+
+    Per group the rows are L^-1 rows (:func:`cholesky_factors`); the groups are
+    stacked in the order of ``groups``.
     """
-    out = []
-    for g in groups:
-        chol = linalg.cholesky(noise.covariance(g), lower=True)
-        out.append(linalg.solve_triangular(chol, columns[g.index], lower=True))
-    return np.concatenate(out, axis=0)
+    return np.concatenate([linalg.solve_triangular(chol, columns[g.index], lower=True)
+                           for chol, g in zip(factors, groups)], axis=0)

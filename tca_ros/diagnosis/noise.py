@@ -30,7 +30,8 @@ import math
 import numpy as np
 from scipy import stats
 
-from tca_ros.diagnosis.input_wander import fit_wander_noise, groups_of, whiten
+from tca_ros.diagnosis.input_wander import cholesky_factors, fit_wander_noise, groups_of, \
+    whiten
 from tca_ros.diagnosis.regressors import nuisance_design, remove_nuisance_jointly
 
 STRUCTURE_ALPHA = 1e-3  # significance level of the residual-input test
@@ -268,15 +269,16 @@ class _WanderWhitener:
     def __init__(self, items, scales):
         self.groups = groups_of(items, scales)
         self.scales = np.concatenate(scales)
-        self.noise = None
+        self.noise, self.factors = None, None
 
     def fit(self, resid):
         """Fit the WanderNoise to the stacked residual by maximum likelihood."""
         self.noise = fit_wander_noise(resid, self.groups, MAX_NOISE_TAU_S, self.noise)
+        self.factors = cholesky_factors(self.noise, self.groups)
 
     def apply(self, blocks):
         """Return the stacked segments' rows whitened by the covariance's Cholesky factor."""
-        return whiten(self.noise, self.groups, np.concatenate(blocks, axis=0))
+        return whiten(self.factors, self.groups, np.concatenate(blocks, axis=0))
 
     def variance(self, innovation_var):
         """Return the model's mean variance of the block means (channel units^2).
