@@ -1,5 +1,6 @@
 """tca_node over real topics, wall-clock mode: one node process for the module."""
 import math
+import time
 
 import numpy as np
 import pytest
@@ -118,8 +119,12 @@ def test_bad_power_commands_are_rejected_clamped_or_floored(fresh, tca):
 
 def test_voltage_command_heats_with_v_squared_over_r(fresh):
     voltage = 5.0  # V
+    rows = fresh.records['power']
     fresh.publish('voltage_cmd', Float64(data=voltage))
-    fresh.spin_for(0.5)
+    # waits for the event: the first power the voltage drives, then one tick more
+    assert fresh.spin_until(lambda: rows and rows[-1][1].data > 0.0, 10.0)
+    count = len(rows)
+    assert fresh.spin_until(lambda: len(rows) > count, 10.0)
     power = fresh.records['power'][-1][1].data
     res = fresh.records['resistance'][-1][1].data
     # R is re-read every physics step; between the two samples R moves by < 0.1 %.
@@ -128,11 +133,17 @@ def test_voltage_command_heats_with_v_squared_over_r(fresh):
 
 
 def test_watchdog_cuts_power_after_command_timeout(fresh, tca):
+    # waits for the events, not for wall-clock deadlines: on a loaded machine the cut
+    # can reach the probe later than command_timeout plus a publish period
+    rows = fresh.records['power']
+    last = lambda: rows[-1][1].data if rows else None  # noqa: E731
+    sent = time.monotonic()
     fresh.publish('power_cmd', Float64(data=1.0))
-    fresh.spin_for(0.2)
-    assert fresh.records['power'][-1][1].data == 1.0
-    fresh.spin_for(0.6)  # command_timeout 0.5 s + one publish period + slack
-    assert fresh.records['power'][-1][1].data == 0.0
+    assert fresh.spin_until(lambda: last() == 1.0, 10.0)
+    assert fresh.spin_until(lambda: last() == 0.0, 10.0)
+    on = next(i for i, (t, m) in enumerate(rows) if t > sent and m.data == 1.0)
+    cut = next(t for t, m in rows[on:] if m.data == 0.0)
+    assert cut - sent >= 0.5  # command_timeout: never before it (received after it is sent)
     assert 'no power or voltage command for 0.5 s' in tca.log()
 
 
@@ -154,7 +165,10 @@ def test_overheat_and_melt_break_the_muscle_until_reset(fresh, tca):
         result = fresh.set_params('tca', melt_temperature=250.0, max_temperature=180.0)
     assert all(r.successful for r in result)
     assert fresh.call(fresh.reset_client, Trigger.Request()).success
-    fresh.spin_for(0.2)
+    temps, res = fresh.records['temperature'], fresh.records['resistance']
+    # waits for the event: a state published after the reset, every topic of its tick
+    assert fresh.spin_until(lambda: temps and temps[-1][1].temperature == 25.0 and res
+                            and math.isfinite(res[-1][1].data), 10.0)
     assert fresh.records['resistance'][-1][1].data == pytest.approx(
         PARAMS.electrical.resistance, rel=1e-9)
     assert fresh.records['temperature'][-1][1].temperature == 25.0
@@ -180,8 +194,11 @@ def test_invalid_parameter_set_is_refused_with_a_reason(probe, tca, values, reas
 def test_valid_parameter_set_is_applied(fresh):
     result = fresh.set_params('tca', dynamics__load=0.4, noise__temperature=0.5)
     assert all(r.successful for r in result)
-    fresh.spin_for(0.5)
-    temps = [m.temperature for _, m in fresh.records['temperature'][-10:]]
+    rows = fresh.records['temperature']
+    count = len(rows)
+    # waits for ten states published after the set (a tick may be in flight: one more)
+    assert fresh.spin_until(lambda: len(rows) >= count + 11, 10.0)
+    temps = [m.temperature for _, m in rows[-10:]]
     assert np.std(temps) > 0.05  # noise of 0.5 K std is now on
     result = fresh.set_params('tca', dynamics__load=PARAMS.dynamics.load,
                               noise__temperature=0.0)
