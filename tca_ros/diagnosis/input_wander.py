@@ -138,16 +138,13 @@ def fit_wander_noise(resid, groups, max_sensor_tau, start=None):
 
 def _logdet_and_quadratic(noise, groups, resid):
     """Return (log det C, r^T C^-1 r) of the residual under ``noise`` (inf if singular)."""
-    logdet, quad = 0.0, 0.0
-    for g in groups:
-        try:
-            chol = linalg.cholesky(noise.covariance(g), lower=True)
-        except linalg.LinAlgError:
-            return math.inf, math.inf
-        z = linalg.solve_triangular(chol, resid[g.index], lower=True)
-        logdet += 2.0 * float(np.sum(np.log(np.diag(chol))))
-        quad += float(z @ z)
-    return logdet, quad
+    try:
+        factors = cholesky_factors(noise, groups)
+    except linalg.LinAlgError:
+        return math.inf, math.inf
+    z = whiten(factors, groups, resid)
+    logdet = sum(2.0 * float(np.sum(np.log(np.diag(chol)))) for chol in factors)
+    return logdet, float(z @ z)
 
 
 def cholesky_factors(noise, groups):

@@ -203,7 +203,10 @@ def structure_test(segments, swing, rate_hz=STRUCTURE_RATE_HZ, floor_share=STRUC
     noise = (_WanderWhitener(items, scales) if wander
              else _ArWhitener(math.exp(-1.0 / (block_rate * MAX_NOISE_TAU_S))))
     full = [np.column_stack([u, x]) for u, x in zip(nuis, xs)]
-    beta, *_ = np.linalg.lstsq(np.vstack(full), np.concatenate(es), rcond=None)
+    # the unwhitened least-squares fit: the feasible GLS's start, and below the size of
+    # the predictable part
+    raw, *_ = np.linalg.lstsq(np.vstack(full), np.concatenate(es), rcond=None)
+    beta = raw
     for _ in range(2):  # feasible GLS: noise model from the residual, refit whitened
         noise.fit(np.concatenate([e - f @ beta for e, f in zip(es, full)]))
         ew, nw, fw = noise.apply(es), noise.apply(nuis), noise.apply(full)
@@ -220,7 +223,6 @@ def structure_test(segments, swing, rate_hz=STRUCTURE_RATE_HZ, floor_share=STRUC
         p = float(stats.f.sf(f, q, dof))
     # the size of the predictable part from the unwhitened least-squares projection
     # (at most the residual itself); the GLS fit above only decides significance
-    raw, *_ = np.linalg.lstsq(np.vstack(full), np.concatenate(es), rcond=None)
     predictable = np.concatenate([x @ raw[k:] - np.mean(x @ raw[k:]) for x in xs])
     rest = np.concatenate([e - f @ raw for e, f in zip(es, full)])
     predictable_ms = float(np.mean(predictable ** 2))

@@ -36,7 +36,7 @@ from tca_ros.records.data_bag import read_bag_record
 # the bounds marked noqa are not used here: the CLI checks its options against them
 from tca_ros.records.record import ABSOLUTE_ZERO_DEGC, MAX_LOAD_N, MAX_POWER_W  # noqa: F401
 from tca_ros.records.record import clip, DataError, held_average, MIN_SAMPLES, POWER_LOGGED, \
-    Record, TIME, VALUE_RANGES
+    power_logged, Record, TIME, VALUE_RANGES
 from tca_ros.records.record import MAX_TEMPERATURE_DEGC  # noqa: F401
 
 REQUIRED_COLUMNS = ('time', 'power', 'load', 'displacement')
@@ -263,7 +263,7 @@ def _check_meta(meta, path, meta_rows):
             raise DataError(f'{path}: row {meta_rows[key]}, column {key!r}: {value:g} must '
                             f'be >= {low:g}')
         meta[key] = value
-    logged = str(meta.get('power_logged', POWER_LOGGED[0])).strip()
+    logged = power_logged(meta)
     if logged not in POWER_LOGGED:
         raise DataError(f"{path}: row {meta_rows['power_logged']}, column 'power_logged': "
                         f"{clip(logged)!r}; allowed {', '.join(POWER_LOGGED)}")

@@ -35,6 +35,11 @@ TIME, DISPLACEMENT = 'time', 'displacement'  # column names quoted in errors
 POWER_LOGGED = ('measured', 'command')  # header power_logged: what the power column is
 
 
+def power_logged(meta):
+    """Return the header ``power_logged`` of a record's ``meta`` (default ``measured``)."""
+    return str(meta.get('power_logged', POWER_LOGGED[0])).strip()
+
+
 def power_is_command(record):
     """Return True when ``record``'s power column is the command, not the power delivered.
 
@@ -42,7 +47,7 @@ def power_is_command(record):
     not measured, so the delivered power may wander unlogged (a few %).
     Default ``measured``.
     """
-    return str(record.meta.get('power_logged', POWER_LOGGED[0])).strip() == POWER_LOGGED[1]
+    return power_logged(record.meta) == POWER_LOGGED[1]
 
 
 class DataError(ValueError):
