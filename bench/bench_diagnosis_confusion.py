@@ -15,7 +15,10 @@ diagnosed together. Families: null, single catalogue effect (all but coil contac
 pairs, out-of-catalogue (a sensor scale nonlinearity, fatigue). Right: a null names
 nothing; a single or a pair names exactly its effects (a power loss under a rough or
 guessed description may also be absorbed: nothing named); an out-of-catalogue case is
-"unexplained" with nothing named. The time is CPU seconds of one process
+"unexplained" with nothing named. Singles are also split by an oracle
+(bench_diagnosis_real.effect_shows): does the truth with its effect switched off
+leave structure on the records by the verdict's own test? Where it does not, the
+effect left no trace (right there: nothing named). The time is CPU seconds of one process
 (time.process_time) per diagnosis, reported per 240 s record at 100 Hz.
 
     python bench/bench_diagnosis_confusion.py [--null 2] [--per-effect 1] [--pairs 2]
@@ -34,7 +37,7 @@ import sys
 import tempfile
 import time
 
-from bench_diagnosis_real import EFFECTS, group_of, truth_structured
+from bench_diagnosis_real import effect_shows, EFFECTS, group_of, truth_structured
 import numpy as np
 
 from tca_ros.diagnosis import diagnose
@@ -89,6 +92,8 @@ def run_case(args):
                  'skipped': str(exc).splitlines()[0]}]
     truth, start = load_params(truth_path(case_dir, seed)), load_params(start_path)
     structured = truth_structured(paths[0], truth_path(case_dir, seed))
+    shows = (effect_shows(paths, [truth_path(case_dir, seed, k) for k in range(len(paths))])
+             if group_of(hidden) in ('single', 'pair') else None)
     rows = []
     for tightness in tightnesses:
         rng = np.random.default_rng([seed, TIGHTNESS.index(tightness)])
@@ -99,6 +104,7 @@ def run_case(args):
                      'tightness': tightness, 'records': len(paths), 'found': found,
                      'helpful': helpful, 'verdict': verdict, 'findings': findings,
                      'notes': notes, 'cpu': cpu, 'truth_structured': structured,
+                     'effect_shows': shows,
                      **conditions(seed)})
     return rows
 
@@ -164,6 +170,12 @@ def print_tables(rows):
                  lambda r, k=name, v=value: r['family'] == 'single' and bool(r[k]) == v)
     line('single, right or the truth a noted rival', lambda r: r['family'] == 'single',
          good=lambda r: right(r) or rival_noted(r))
+    # the oracle of effect_shows: can the verdict's test see the hidden effect at all?
+    if any(r.get('effect_shows') is not None for r in rows):
+        line('single, its effect shows', lambda r: r['family'] == 'single'
+             and r.get('effect_shows') is True)
+        line('single, no trace of its effect', lambda r: r['family'] == 'single'
+             and r.get('effect_shows') is False, good=lambda r: not r['found'])
     wrong = [r for r in rows if r['family'] != 'null' and set(r['found']) - set(r['hidden'])]
     print(f'an effect named that was not hidden: {len(wrong)}/{len(rows)} diagnoses')
     print(f'\n{"hidden":<34s}{"tightness":<10s}{"rec":>4s}  named (count)')

@@ -139,6 +139,33 @@ def truth_structured(record_path, truth_file):
     return any(st.structured for st in stats.values())
 
 
+def effect_shows(record_paths, truth_files):
+    """Return True when the hidden catalogue effects leave structure the verdict can see.
+
+    The oracle: the truth params with every catalogue effect switched off,
+    simulated by the plant's kinetostatic model from the logged inputs of every
+    record, judged by the verdict's test on the held-out parts and on the whole
+    records together. Where even that passes, the effect left no trace above the
+    noise (a creep settled under a load hung before the record began, a lag
+    shorter than a sample): no diagnosis can find it, and 'adequate' is what the
+    records support.
+    """
+    from tca_ros.diagnosis.fitting import FitProblem, TRAIN_FRACTION
+    from tca_ros.diagnosis.holdout import choose_validation
+    from tca_ros.diagnosis.verdict import channel_stats
+    from tca_ros.params.files import load_params
+    from tca_ros.records.data import read_record
+    records = [read_record(path) for path in record_paths]
+    off = {names[0]: 0.0 for name, names in CATALOGUE.items() if name != 'coil_contact'}
+    validation = choose_validation(records, TRAIN_FRACTION)
+    truths = [load_params(path) for path in truth_files]
+    problems = [FitProblem(r, t.with_values(**off), model=t.model, validation=validation)
+                for r, t in zip(records, truths)]
+    sims = [p.simulate_full({}) for p in problems]
+    return any(st.structured for whole in (False, True)
+               for st in channel_stats(problems, sims, whole=whole).values())
+
+
 def group_of(hidden):
     """Return the case group of a hidden-effect list."""
     if not hidden:

@@ -107,13 +107,15 @@ def groups_of(items, scales):
             for t, s, ix in out.values()]
 
 
-def fit_wander_noise(resid, groups, max_sensor_tau, start=None):
+def fit_wander_noise(resid, groups, max_sensor_tau, start=None, supply=None):
     """Return the maximum-likelihood WanderNoise of the stacked residual ``resid``.
 
     ``groups`` from :func:`groups_of`; ``max_sensor_tau`` (s) caps the sensor
     noise's memory (a longer one would call slow model error noise); ``start``
     a WanderNoise to start from (default: half the residual's variance each to the
-    sensor and to a 1 %, 10 s wander).
+    sensor and to a 1 %, 10 s wander); ``supply``: (sigma_w, tau_w s) of the
+    wander held fixed (another channel's estimate of the same supply), only the
+    sensor noise fitted.
     Bounded (L-BFGS-B on logarithms; the wander within WANDER_SHARE_RANGE).
     """
     resid = np.asarray(resid, dtype=float)
@@ -125,15 +127,47 @@ def fit_wander_noise(resid, groups, max_sensor_tau, start=None):
               tuple(math.log(v) for v in WANDER_TAU_RANGE_S)]
     x0 = [min(max(math.log(v), lo), hi) for v, (lo, hi) in zip(
         (start.sigma_v, start.tau_v, start.sigma_w, start.tau_w), bounds)]
+    fixed = () if supply is None else tuple(math.log(v) for v in supply)
+    if fixed:
+        x0, bounds = x0[:2], bounds[:2]
 
     def cost(x):
-        logdet, quad = _logdet_and_quadratic(WanderNoise(*np.exp(x)), groups, resid)
+        noise = WanderNoise(*np.exp(np.concatenate([x, fixed])))
+        logdet, quad = _logdet_and_quadratic(noise, groups, resid)
         return 0.5 * (logdet + quad)
 
     best = optimize.minimize(cost, x0, method='L-BFGS-B', bounds=bounds,
                              options={'maxiter': 40, 'ftol': 1e-7})
     x = best.x if np.isfinite(best.fun) else np.array(x0)
-    return WanderNoise(*(float(v) for v in np.exp(x)))
+    sigma_v, tau_v, *wander = (float(v) for v in np.exp(np.concatenate([x, fixed])))
+    return WanderNoise(sigma_v, tau_v, *(supply or wander))
+
+
+def chance_projection(noise, groups, full, nuisance):
+    """Return the wander's expected mean square in the input terms' span (channel units^2).
+
+    trace((P_full - P_nuisance) C_w) / n: C_w the covariance of the wander's part
+    of the stacked block means under ``noise`` (the sensor's left out), P the
+    orthogonal projectors on the columns of ``full`` (nuisance and input terms,
+    unwhitened) and of ``nuisance``. What an unweighted least-squares fit of the
+    input terms takes up of the wander by chance: its mean level over a short
+    held-out part times the response, most of all.
+    """
+    n = full.shape[0]
+    cov = np.zeros((n, n))
+    for g in groups:
+        cov[np.ix_(g.index, g.index)] = g.outer * (noise.sigma_w ** 2 * g.decay(noise.tau_w))
+    return max(_projected_trace(cov, full) - _projected_trace(cov, nuisance), 0.0) / n
+
+
+def _projected_trace(cov, columns):
+    """Return trace(P C) of the orthogonal projector P on the span of ``columns``."""
+    if columns.shape[1] == 0:
+        return 0.0
+    q, r, _ = linalg.qr(columns, mode='economic', pivoting=True)
+    d = np.abs(np.diag(r))
+    q = q[:, :int(np.sum(d > 1e-10 * d[0]))] if d.size and d[0] > 0.0 else q[:, :0]
+    return float(np.sum(q * (cov @ q)))
 
 
 def _logdet_and_quadratic(noise, groups, resid):

@@ -30,8 +30,8 @@ import math
 import numpy as np
 from scipy import stats
 
-from tca_ros.diagnosis.input_wander import cholesky_factors, fit_wander_noise, groups_of, \
-    whiten
+from tca_ros.diagnosis.input_wander import chance_projection, cholesky_factors, \
+    fit_wander_noise, groups_of, whiten
 from tca_ros.diagnosis.regressors import nuisance_design, remove_nuisance_jointly
 
 STRUCTURE_ALPHA = 1e-3  # significance level of the residual-input test
@@ -128,6 +128,8 @@ class StructureTest:
     n: int  # samples in the test (block means)
     swing: float = math.inf  # range of the measured signal (channel units)
     wander_rms: float = 0.0  # RMS of the block means beyond offset, drift and inputs
+    #: (sigma_w -, tau_w s) of the unlogged input wander (input_wander.py), or None
+    supply: tuple = None
 
     @property
     def structured(self):
@@ -143,7 +145,7 @@ class StructureTest:
 
 
 def structure_test(segments, swing, rate_hz=STRUCTURE_RATE_HZ, floor_share=STRUCTURE_FLOOR,
-                   noise_share=STRUCTURE_NOISE_SHARE):
+                   noise_share=STRUCTURE_NOISE_SHARE, supply=None):
     """Return the StructureTest of residuals against input-driven terms.
 
     ``segments`` is a list of (residual, terms, sample rate in Hz[, start[, group[, scale]]]),
@@ -169,7 +171,8 @@ def structure_test(segments, swing, rate_hz=STRUCTURE_RATE_HZ, floor_share=STRUC
     residual's samples, channel units; None for a measured power) marks a
     record whose power column is the command: the noise model is then the
     sensor noise plus the unlogged input wander of input_wander.py, and its
-    wander counts in the noise floor.
+    wander counts in the noise floor; ``supply`` (sigma_w, tau_w in s) holds the
+    wander at another channel's estimate of it (one supply feeds every channel).
     """
     parts, blocked, scales = [], [], []
     segments = [_segment(seg) for seg in segments]
@@ -200,7 +203,7 @@ def structure_test(segments, swing, rate_hz=STRUCTURE_RATE_HZ, floor_share=STRUC
     xs = [x[:, :cols] for _, x, _ in parts]
     k = parts[0][2].shape[1]
     nuis = [u for _, _, u in parts]
-    noise = (_WanderWhitener(items, scales) if wander
+    noise = (_WanderWhitener(items, scales, supply) if wander
              else _ArWhitener(math.exp(-1.0 / (block_rate * MAX_NOISE_TAU_S))))
     full = [np.column_stack([u, x]) for u, x in zip(nuis, xs)]
     # the unwhitened least-squares fit: the feasible GLS's start, and below the size of
@@ -229,15 +232,19 @@ def structure_test(segments, swing, rate_hz=STRUCTURE_RATE_HZ, floor_share=STRUC
     # the noise by the model of the noise (an offset, a drift or a wander slower than
     # its memory is not in it), plus the spread within the blocks
     innovation_var = ssr1 / dof if dof > 0 else 0.0
-    noise_rms = math.sqrt(noise.variance(innovation_var) + _within_block_ms(segments, rate_hz))
+    noise_rms = math.sqrt(noise.variance(innovation_var, (np.vstack(full), np.vstack(nuis)))
+                          + _within_block_ms(segments, rate_hz))
     floor = max(floor_share * swing, noise_share * noise_rms)
     return StructureTest(p_value=p, predictable_rms=math.sqrt(predictable_ms),
                          noise_rms=noise_rms, floor=floor, ar_order=noise.order, n=n,
-                         swing=swing, wander_rms=math.sqrt(float(np.mean(rest ** 2))))
+                         swing=swing, wander_rms=math.sqrt(float(np.mean(rest ** 2))),
+                         supply=noise.supply)
 
 
 class _ArWhitener:
     """Stationary AR(p) noise (p by BIC, memory capped): prewhitens each segment."""
+
+    supply = None  # no input wander
 
     def __init__(self, rho_max):
         self.rho_max, self.phi = rho_max, np.zeros(0)
@@ -258,8 +265,8 @@ class _ArWhitener:
         """Return the segments' rows prewhitened, stacked (first p of each dropped)."""
         return np.concatenate([prewhiten(b, self.phi) for b in blocks], axis=0)
 
-    def variance(self, innovation_var):
-        """Return the process variance of the block means (channel units^2)."""
+    def variance(self, innovation_var, design=None):
+        """Return the process variance of the block means (channel units^2; ``design`` unused)."""
         return innovation_var * ar_variance_gain(self.phi)
 
 
@@ -268,27 +275,39 @@ class _WanderWhitener:
 
     order = 1
 
-    def __init__(self, items, scales):
+    def __init__(self, items, scales, supply=None):
         self.groups = groups_of(items, scales)
         self.scales = np.concatenate(scales)
-        self.noise, self.factors = None, None
+        self.noise, self.factors, self.fixed = None, None, supply
+
+    @property
+    def supply(self):
+        """Return (sigma_w -, tau_w s) of the fitted or given wander."""
+        return (self.noise.sigma_w, self.noise.tau_w)
 
     def fit(self, resid):
         """Fit the WanderNoise to the stacked residual by maximum likelihood."""
-        self.noise = fit_wander_noise(resid, self.groups, MAX_NOISE_TAU_S, self.noise)
+        self.noise = fit_wander_noise(resid, self.groups, MAX_NOISE_TAU_S, self.noise,
+                                      self.fixed)
         self.factors = cholesky_factors(self.noise, self.groups)
 
     def apply(self, blocks):
         """Return the stacked segments' rows whitened by the covariance's Cholesky factor."""
         return whiten(self.factors, self.groups, np.concatenate(blocks, axis=0))
 
-    def variance(self, innovation_var):
-        """Return the model's mean variance of the block means (channel units^2).
+    def variance(self, innovation_var, design=None):
+        """Return the noise's mean square that may pass for structure (channel units^2).
 
-        The wander counts: on a held-out part a few of its correlation times
-        long, its chance projection on the input terms is about its whole size.
+        The sensor noise's variance, and of the wander what falls by chance in
+        the input terms' span beyond the nuisance terms (``design``: the
+        unwhitened stacked (full, nuisance) matrices; input_wander.chance_projection).
+        The wander's whole variance would hide any model error smaller than the
+        supply's effect on the response, which the GLS test itself tells from the
+        wander (G62).
         """
-        return self.noise.variance(self.scales)
+        full, nuisance = design
+        return self.noise.sigma_v ** 2 + chance_projection(self.noise, self.groups, full,
+                                                           nuisance)
 
 
 def ar_variance_gain(phi, terms=2000):

@@ -13,6 +13,7 @@ from tca_ros.calibration.residuals import residual_stats
 from tca_ros.diagnosis.noise import heldout_deviance_gain, structure_test
 from tca_ros.diagnosis.regressors import input_terms_in_runs, remove_nuisance_jointly
 from tca_ros.diagnosis.verdict_text import confirmed_sentence, verdict_sentence
+from tca_ros.model.simulation import simulate
 from tca_ros.model.thermal import thermal_time_constant
 from tca_ros.records.record import power_is_command
 
@@ -24,18 +25,41 @@ def gain(before, after):
     return 100.0 * (1.0 - after / before) if before > 0.0 else 0.0
 
 
-def wander_scale(problem, channel, prediction, params=None):
-    """Return the response level an unlogged power wander scales, or None (channel units).
+#: relative step of the delivered power for the response's sensitivity to it (-)
+WANDER_STEP = 0.02
 
-    None when ``problem``'s record logs the power delivered; else the predicted
-    displacement (m) or temperature rise (K) over the record
-    (noise.structure_test, input_wander.py).
+
+def wander_scale(problem, channel, prediction, params=None):
+    """Return the response's sensitivity to the delivered power, or None (channel units).
+
+    None when ``problem``'s record logs the power delivered. Else d y / d ln P: the
+    change of the predicted displacement (m) or temperature (K) over the record when
+    the power heating the thread is WANDER_STEP larger (the delivered power ratio),
+    divided by that step. A slow relative wander w of the supply moves the response
+    by about this times w (noise.structure_test, input_wander.py); for the
+    temperature under a linear heat loss it is the rise, for the stroke the local
+    stroke-temperature slope times the rise, not the stroke itself (G62).
+    ``prediction``: the channel simulated with ``params`` (default the problem's)
+    at the record's samples.
     """
     if not power_is_command(problem.record):
         return None
-    if channel == 'temperature':
-        return prediction - (params or problem.params).thermal.ambient_temperature
-    return prediction
+    raised = _with_more_power(problem, params or problem.params)
+    return (getattr(raised, channel) - prediction) / WANDER_STEP
+
+
+def _with_more_power(problem, params):
+    """Return the simulation of ``params`` with WANDER_STEP more power delivered (cached)."""
+    cache = problem.__dict__.setdefault('_more_power', {})
+    if params not in cache:
+        if len(cache) > 64:  # the verdicts of one diagnosis: a few dozen parameter sets
+            cache.clear()
+        r = problem.record
+        ratio = params.thermal.delivered_power_ratio * (1.0 + WANDER_STEP)
+        cache[params] = simulate(params.with_values(**{'thermal.delivered_power_ratio': ratio}),
+                                 r.time, r.power, r.load, model=problem.model,
+                                 physics_rate=problem.physics_rate)
+    return cache[params]
 
 
 def pooled_heldout_rmse(problems, sims, channels, detrend=False):
@@ -98,7 +122,7 @@ def channel_stats(problems, sims, params=None, whole=False):
         problems, sims = [problems], [sims]
         params = None if params is None else [params]
     params = params or [p.params for p in problems]
-    out = {}
+    out, tests = {}, {}
     for c in problems[0].channels:
         segments, measured_all, predicted_all, temp_all = [], [], [], []
         swing = 0.0
@@ -121,12 +145,31 @@ def channel_stats(problems, sims, params=None, whole=False):
             predicted_all.append(predicted[index])
             temp = r.temperature if r.temperature is not None else sim.temperature
             temp_all.append(temp[index])
-        first = problems[0]
-        test = structure_test(segments, swing)
-        out[c] = residual_stats(c, UNITS[c], np.concatenate(measured_all),
-                                np.concatenate(predicted_all), first.sigma[c],
-                                first.sample_rate, np.concatenate(temp_all), structure=test)
+        tests[c] = (segments, swing, structure_test(segments, swing))
+        out[c] = (np.concatenate(measured_all), np.concatenate(predicted_all),
+                  np.concatenate(temp_all))
+    supply = one_supply(tests)
+    first = problems[0]
+    for c, (segments, swing, test) in tests.items():
+        if supply is not None and test.supply != supply:
+            test = structure_test(segments, swing, supply=supply)
+        out[c] = residual_stats(c, UNITS[c], *out[c][:2], first.sigma[c], first.sample_rate,
+                                out[c][2], structure=test)
     return out
+
+
+def one_supply(tests):
+    """Return (sigma_w -, tau_w s) of the smallest input wander the channels fitted, or None.
+
+    ``tests``: {channel: (segments, swing, StructureTest)}. One supply heats the
+    thread, so the unlogged wander of a commanded power (input_wander.py) is one
+    process in every channel. A channel's own estimate takes up, besides it,
+    whatever of a model error follows the response's level; the smallest is the
+    supply's, and the other channels are tested with it (G62). None with fewer
+    than two channels that model the wander.
+    """
+    fitted = [t.supply for _, _, t in tests.values() if t.supply is not None]
+    return min(fitted) if len(fitted) > 1 else None
 
 
 NOTHING_TO_EXPLAIN = ('no effect searched: the inputs predict nothing beyond the noise in '
