@@ -151,23 +151,25 @@ def chance_projection(noise, groups, full, nuisance):
     orthogonal projectors on the columns of ``full`` (nuisance and input terms,
     unwhitened) and of ``nuisance``. What an unweighted least-squares fit of the
     input terms takes up of the wander by chance: its mean level over a short
-    held-out part times the response, most of all.
+    held-out part times the response, most of all. C_w is one block per group.
     """
-    n = full.shape[0]
-    cov = np.zeros((n, n))
-    for g in groups:
-        cov[np.ix_(g.index, g.index)] = g.outer * (noise.sigma_w ** 2 * g.decay(noise.tau_w))
-    return max(_projected_trace(cov, full) - _projected_trace(cov, nuisance), 0.0) / n
+    wander = [(g.index, g.outer * (noise.sigma_w ** 2 * g.decay(noise.tau_w)))
+              for g in groups]
+    taken = _projected_trace(wander, full) - _projected_trace(wander, nuisance)
+    return max(taken, 0.0) / full.shape[0]
 
 
-def _projected_trace(cov, columns):
-    """Return trace(P C) of the orthogonal projector P on the span of ``columns``."""
+def _projected_trace(blocks, columns):
+    """Return trace(P C) of the projector P on the span of ``columns``, C of ``blocks``.
+
+    ``blocks``: (row indices, covariance) of C's diagonal blocks.
+    """
     if columns.shape[1] == 0:
         return 0.0
     q, r, _ = linalg.qr(columns, mode='economic', pivoting=True)
     d = np.abs(np.diag(r))
     q = q[:, :int(np.sum(d > 1e-10 * d[0]))] if d.size and d[0] > 0.0 else q[:, :0]
-    return float(np.sum(q * (cov @ q)))
+    return float(sum(np.sum(q[index] * (cov @ q[index])) for index, cov in blocks))
 
 
 def _logdet_and_quadratic(noise, groups, resid):

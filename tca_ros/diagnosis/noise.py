@@ -232,7 +232,8 @@ def structure_test(segments, swing, rate_hz=STRUCTURE_RATE_HZ, floor_share=STRUC
     # the noise by the model of the noise (an offset, a drift or a wander slower than
     # its memory is not in it), plus the spread within the blocks
     innovation_var = ssr1 / dof if dof > 0 else 0.0
-    noise_rms = math.sqrt(noise.variance(innovation_var, (np.vstack(full), np.vstack(nuis)))
+    design = (np.vstack(full), np.vstack(nuis)) if wander else None
+    noise_rms = math.sqrt(noise.variance(innovation_var, design)
                           + _within_block_ms(segments, rate_hz))
     floor = max(floor_share * swing, noise_share * noise_rms)
     return StructureTest(p_value=p, predictable_rms=math.sqrt(predictable_ms),
