@@ -68,7 +68,7 @@ def test_the_wander_s_chance_share_of_the_input_terms_is_its_expected_projection
              - nuisance @ np.linalg.lstsq(nuisance, d, rcond=None)[0] for d in draws.T]
     measured = float(np.mean([np.mean(x ** 2) for x in taken]))
     assert expected == pytest.approx(measured, rel=0.15)
-    whole = noise.variance(level) - noise.sigma_v ** 2
+    whole = noise.sigma_w ** 2 * float(np.mean(level ** 2))
     assert expected < 0.5 * whole  # the whole wander is far more than its chance share
 
 

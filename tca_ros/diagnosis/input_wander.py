@@ -50,14 +50,13 @@ class WanderNoise:
 
     def covariance(self, group):
         """Return the covariance (channel units^2) of a WanderGroup's block means."""
-        cov = self.sigma_v ** 2 * group.decay(self.tau_v)
-        cov += group.outer * (self.sigma_w ** 2 * group.decay(self.tau_w))
+        cov = self.sigma_v ** 2 * group.decay(self.tau_v) + self.wander_covariance(group)
         cov[np.diag_indices_from(cov)] *= 1.0 + JITTER
         return cov
 
-    def variance(self, scale):
-        """Return the mean variance (channel units^2) of the residual over ``scale``."""
-        return self.sigma_v ** 2 + self.sigma_w ** 2 * float(np.mean(np.square(scale)))
+    def wander_covariance(self, group):
+        """Return the wander's part of a WanderGroup's covariance (channel units^2)."""
+        return group.outer * (self.sigma_w ** 2 * group.decay(self.tau_w))
 
 
 class WanderGroup:
@@ -153,8 +152,7 @@ def chance_projection(noise, groups, full, nuisance):
     input terms takes up of the wander by chance: its mean level over a short
     held-out part times the response, most of all. C_w is one block per group.
     """
-    wander = [(g.index, g.outer * (noise.sigma_w ** 2 * g.decay(noise.tau_w)))
-              for g in groups]
+    wander = [(g.index, noise.wander_covariance(g)) for g in groups]
     taken = _projected_trace(wander, full) - _projected_trace(wander, nuisance)
     return max(taken, 0.0) / full.shape[0]
 

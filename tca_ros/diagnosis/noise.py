@@ -278,7 +278,6 @@ class _WanderWhitener:
 
     def __init__(self, items, scales, supply=None):
         self.groups = groups_of(items, scales)
-        self.scales = np.concatenate(scales)
         self.noise, self.factors, self.fixed = None, None, supply
 
     @property
