@@ -6,6 +6,7 @@ import sys
 
 import numpy as np
 import pytest
+from scipy import signal
 
 from tca_ros.calibration.candidates import build_candidates, contradicted_by_measurement, \
     THERMOMETER_TOLERANCE_K
@@ -13,7 +14,7 @@ from tca_ros.diagnosis import diagnose, verdict
 from tca_ros.diagnosis.fitting import FitProblem, TRAIN_FRACTION
 from tca_ros.diagnosis.holdout import choose_validation
 from tca_ros.diagnosis.input_wander import chance_projection, fit_wander_noise, groups_of, \
-    WANDER_SHARE_RANGE, WanderNoise
+    WANDER_SHARE_RANGE, WANDER_WINDOW_S, WanderNoise, WanderPath
 from tca_ros.diagnosis.noise import structure_test, StructureTest
 from tca_ros.diagnosis.verdict import channel_stats, one_supply, wander_scale
 from tca_ros.params.files import dump_params, load_params
@@ -70,6 +71,67 @@ def test_the_wander_s_chance_share_of_the_input_terms_is_its_expected_projection
     assert expected == pytest.approx(measured, rel=0.15)
     whole = noise.sigma_w ** 2 * float(np.mean(level ** 2))
     assert expected < 0.5 * whole  # the whole wander is far more than its chance share
+
+
+def test_the_wander_s_path_holds_the_heat_each_window_delivered():
+    # rows of R sum to one where the thread holds heat, zero before the first heat;
+    # unlagged, a block answers to its own window only; a dead time moves the heat
+    t = np.arange(40) / RATE
+    power = np.where(t >= 4.0, 1.0, 0.0)
+    rows, centres = WanderPath(power, RATE, (3.0,)).response(t + 0.25, RATE)
+    assert np.all(rows[t < 4.0] == 0.0)
+    assert np.allclose(rows[t >= 4.0].sum(axis=1), 1.0)
+    assert np.allclose(centres, (np.arange(rows.shape[1]) + 0.5) * WANDER_WINDOW_S)
+    late = rows[-1]  # 15 s after the heat came on: the last windows hold the most
+    assert np.argmax(late) == rows.shape[1] - 1 and late[2] > 0.0
+    own, _ = WanderPath(power, RATE, ()).response(t + 0.25, RATE)
+    heated = np.flatnonzero(t >= 4.0)
+    assert np.allclose(own[heated, (t[heated] // WANDER_WINDOW_S).astype(int)], 1.0)
+    delayed, _ = WanderPath(power, RATE, (), dead_time=2.0).response(t + 0.25, RATE)
+    assert np.all(delayed[t < 6.0] == 0.0)
+    assert np.allclose(delayed[t >= 6.0].sum(axis=1), 1.0)
+    m = delayed.shape[1]  # 6 s reads the window of 4 s (the last windows heat nothing)
+    assert np.allclose(delayed[12], own[8, :m]) and not own[8, m:].any()
+
+
+def _cooling_record(seed, tau_thermal=4.0, n=600):
+    """Return (power W, rise K, residual K) of a first-order heating with a 3 % wander.
+
+    Heated for 40 s and cooled for 40 s, twice the power after 150 s: the wander
+    of the supply reaches the temperature through the thermal lag and stops
+    moving it while the power is off.
+    """
+    rng = np.random.default_rng(seed)
+    t = np.arange(n) / RATE
+    power = np.where(t % 80.0 < 40.0, 1.0, 0.0) * np.where(t > 150.0, 1.5, 1.0)
+    a = math.exp(-1.0 / (RATE * tau_thermal))
+    rise = 40.0 * signal.lfilter([1.0 - a], [1.0, -a], power)
+    wander = ar1(rng, n, RATE, 0.03, tau=10.0)
+    residual = 40.0 * signal.lfilter([1.0 - a], [1.0, -a], power * wander)
+    return power, rise, residual + 0.05 * rng.standard_normal(n)
+
+
+def test_the_wander_reaches_the_channel_through_the_thermal_lag():
+    # eight records of a 3 %, 10 s wander behind a 4 s thermal lag (G63): passed
+    # through the lag, the fitted wander has about its correlation time and no
+    # record is structured; taken unlagged, its time is read several times too
+    # long (the cooling response to the heat already delivered looks like a slow
+    # wander)
+    lagged, unlagged = [], []
+    for seed in range(8):
+        power, rise, residual = _cooling_record(seed)
+        terms = np.column_stack([rise, np.gradient(rise)])
+        path = WanderPath(power, RATE, (4.0,))
+        with_path = structure_test([(residual, terms, RATE, 0.0, 'rec', rise, path)],
+                                   float(np.ptp(rise)))
+        without = structure_test([(residual, terms, RATE, 0.0, 'rec', rise)],
+                                 float(np.ptp(rise)))
+        assert not with_path.structured
+        lagged.append(with_path.supply)
+        unlagged.append(without.supply)
+    assert 6.0 < np.median([tau for _, tau in lagged]) < 15.0
+    assert np.median([share for share, _ in lagged]) == pytest.approx(0.03, rel=0.3)
+    assert np.median([tau for _, tau in unlagged]) > 30.0
 
 
 def test_one_supply_is_the_smallest_wander_the_channels_fitted_and_it_is_held():

@@ -8,8 +8,13 @@ model is
 
     e(t) = s(t) w(t) + v(t)
 
-with s(t) the response's level (the predicted stroke, or the predicted
-temperature rise) and v(t) the sensor's noise. That residual follows the
+with s(t) the response's sensitivity to the delivered power (d y / d ln P)
+and v(t) the sensor's noise. The wander reaches the channel through the
+muscle's lags (the thermal time constant, then a second thermal lag and a
+sensor lag for the stroke, after the drive's dead time: WanderPath), so w(t) is
+the wander of the heat the lags still hold, weighted by the power that carried
+it; with the lags left out, a cooling muscle would move with a wander of a
+supply that is off (G63). That residual follows the
 inputs (it is zero when the muscle is cold and grows with the stroke), so a
 test that takes the noise as stationary calls it model error. Here both
 parts are Gaussian processes in time: w an Ornstein-Uhlenbeck process
@@ -29,13 +34,15 @@ from dataclasses import dataclass
 import math
 
 import numpy as np
-from scipy import linalg, optimize
+from scipy import linalg, optimize, signal
 
 # relative std of the delivered power's wander (-): a bench supply holds its power
 # within a few per cent; more, and the wander would take up a real effect's residual
 WANDER_SHARE_RANGE = (1e-4, 0.05)
 WANDER_TAU_RANGE_S = (2.0, 120.0)  # s, its correlation time
 SENSOR_TAU_MIN_S = 0.05  # s, shortest correlation time of the sensor noise
+#: s, the wander is resolved in windows this long: its shortest correlation time
+WANDER_WINDOW_S = WANDER_TAU_RANGE_S[0]
 JITTER = 1e-9  # relative diagonal loading of the covariance (numerical)
 
 
@@ -55,21 +62,85 @@ class WanderNoise:
         return cov
 
     def wander_covariance(self, group):
-        """Return the wander's part of a WanderGroup's covariance (channel units^2)."""
-        return group.outer * (self.sigma_w ** 2 * group.decay(self.tau_w))
+        """Return the wander's part of a WanderGroup's covariance (channel units^2).
+
+        G K G^T with G the group's response to the wander in each window
+        (WanderPath) and K the wander's covariance between windows; without a
+        path, the wander at each block itself: s_i s_j K(t_i, t_j).
+        """
+        if group.response is None:
+            return group.outer * (self.sigma_w ** 2 * group.decay(self.tau_w))
+        g = group.response
+        return self.sigma_w ** 2 * (g @ np.exp(-group.window_lag / self.tau_w) @ g.T)
+
+
+@dataclass(frozen=True, eq=False)
+class WanderPath:
+    """How a wander of the delivered power reaches one channel of one record.
+
+    ``power`` (W): the record's commanded power at its samples, ``sample_rate``
+    (Hz) their rate; ``lags`` (s): the first-order lags in series from the heat
+    input to the channel (the thermal time constant, eq. 8; for the stroke also
+    a second thermal lag and a sensor lag); ``dead_time`` (s): the drive's delay.
+    """
+
+    power: np.ndarray
+    sample_rate: float
+    lags: tuple
+    dead_time: float = 0.0
+
+    def response(self, times, block_rate):
+        """Return (R, window centres in s) of the channel at block centres ``times``.
+
+        R[i, m] (-): the share of the heat the lags hold at ``times[i]`` (s since
+        the record's zero) that entered during wander window m (WANDER_WINDOW_S
+        long): the power there, delayed by the dead time and passed through each
+        lag, over the same of the whole power. Rows sum to one where the thread
+        holds heat (a constant wander w moves the channel by its sensitivity
+        times w) and are zero where it holds none. ``block_rate`` (Hz): the rate
+        of the blocks the times belong to.
+        """
+        step = max(1, int(round(self.sample_rate / block_rate)))
+        dt = step / self.sample_rate
+        n = self.power.size // step
+        p = np.asarray(self.power[:n * step], dtype=float).reshape(n, step).mean(axis=1)
+        shift = min(int(round(self.dead_time / dt)), n)
+        source = np.arange(n - shift)  # the block whose power heats block k + shift
+        window = (source * dt // WANDER_WINDOW_S).astype(int)
+        heat = np.zeros((n, int(window.max()) + 1 if window.size else 1))
+        heat[source + shift, window] = p[source]
+        for tau in self.lags:
+            if tau > 0.0:
+                a = math.exp(-dt / tau)
+                heat = signal.lfilter([1.0 - a], [1.0, -a], heat, axis=0)
+        total = heat.sum(axis=1)
+        held = total > 1e-9 * max(float(np.max(np.abs(total))), 1e-300)
+        heat[held] /= total[held, None]
+        heat[~held] = 0.0
+        rows = heat[np.clip((np.asarray(times) / dt).astype(int), 0, n - 1)]
+        return rows, (np.arange(heat.shape[1]) + 0.5) * WANDER_WINDOW_S
 
 
 class WanderGroup:
     """The block means of one record's segments: where they are and how loud.
 
-    ``times`` (s): block centres since the record's zero; ``scale``: the response
-    level at the blocks (channel units); ``index``: their positions in the stacked
-    vector of every segment's block means.
+    ``times`` (s): block centres since the record's zero; ``scale``: the response's
+    sensitivity to the power at the blocks (channel units); ``index``: their
+    positions in the stacked vector of every segment's block means; ``response``:
+    (R, window centres) of WanderPath.response at the blocks, or None (the
+    wander at each block acts unlagged).
     """
 
-    def __init__(self, times, scale, index):  # noqa: D107 -- documented on the class
+    def __init__(self, times, scale, index, response=None):  # noqa: D107 -- on the class
         self.times, self.scale, self.index = times, scale, index
         self.outer = np.outer(scale, scale)
+        self.response, self.window_lag = None, None
+        if response is not None:  # (R, window centres): the lagged wander (WanderPath)
+            rows, centres = response
+            g = scale[:, None] * rows
+            used = np.any(g != 0.0, axis=0)  # windows before the group's end that heat it
+            self.response = g[:, used]
+            self.window_lag = np.abs(centres[used][:, None] - centres[used][None, :])
         # the lags on a grid of the shortest block interval: exp(-lag / tau) is then
         # a power of one number per lag, looked up rather than computed per entry
         lag = np.abs(times[:, None] - times[None, :])
@@ -85,25 +156,31 @@ class WanderGroup:
         return np.exp(-np.arange(self._lag.max() + 1) * (self._step / tau))[self._lag]
 
 
-def groups_of(items, scales):
+def groups_of(items, scales, paths=None):
     """Return [WanderGroup] of stacked segments.
 
     ``items``: (size, block rate in Hz, start in s or None, group or None) per
     segment, as regressors.nuisance_design; ``scales``: the block means of the
-    response level per segment. Segments of one group are one record's runs.
+    response's sensitivity per segment; ``paths``: a WanderPath per segment (or
+    None: the wander unlagged). Segments of one group are one record's runs.
     """
+    paths = paths or [None] * len(items)
     out, at = {}, 0
-    for i, ((size, rate, start, group), scale) in enumerate(zip(items, scales)):
+    for i, ((size, rate, start, group), scale, path) in enumerate(zip(items, scales, paths)):
         key = ('own', i) if group is None else ('group', group)
         t0 = 0.0 if start is None else float(start)
         t = t0 + (np.arange(size) + 0.5) / rate
-        entry = out.setdefault(key, ([], [], []))
+        entry = out.setdefault(key, ([], [], [], path, rate))
         entry[0].append(t)
         entry[1].append(np.asarray(scale, dtype=float)[:size])
         entry[2].append(np.arange(at, at + size))
         at += size
-    return [WanderGroup(np.concatenate(t), np.concatenate(s), np.concatenate(ix))
-            for t, s, ix in out.values()]
+    groups = []
+    for t, s, ix, path, rate in out.values():
+        t = np.concatenate(t)
+        groups.append(WanderGroup(t, np.concatenate(s), np.concatenate(ix),
+                                  None if path is None else path.response(t, rate)))
+    return groups
 
 
 def fit_wander_noise(resid, groups, max_sensor_tau, start=None, supply=None):

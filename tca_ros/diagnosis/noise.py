@@ -74,11 +74,11 @@ def block_means(values, step):
 
 
 def _segment(seg):
-    """Return (residual, terms, sample rate, start, group, scale) of a tuple (None if absent).
+    """Return (residual, terms, sample rate, start, group, scale, path) (None if absent).
 
-    A segment is (residual, terms, sample rate[, start[, group[, scale]]]).
+    A segment is (residual, terms, sample rate[, start[, group[, scale[, path]]]]).
     """
-    return (*seg[:3], *(seg[k] if len(seg) > k else None for k in (3, 4, 5)))
+    return (*seg[:3], *(seg[k] if len(seg) > k else None for k in (3, 4, 5, 6)))
 
 
 def ar_fit(e, order):
@@ -171,16 +171,18 @@ def structure_test(segments, swing, rate_hz=STRUCTURE_RATE_HZ, floor_share=STRUC
     residual's samples, channel units; None for a measured power) marks a
     record whose power column is the command: the noise model is then the
     sensor noise plus the unlogged input wander of input_wander.py, and its
-    wander counts in the noise floor; ``supply`` (sigma_w, tau_w in s) holds the
-    wander at another channel's estimate of it (one supply feeds every channel).
+    wander counts in the noise floor; a 7th element ``path`` (input_wander.WanderPath)
+    passes the wander through the muscle's lags to the channel; ``supply``
+    (sigma_w, tau_w in s) holds the wander at another channel's estimate of it (one
+    supply feeds every channel).
     """
-    parts, blocked, scales = [], [], []
+    parts, blocked, scales, paths = [], [], [], []
     segments = [_segment(seg) for seg in segments]
     native = np.concatenate([np.asarray(r, dtype=float) for r, *_ in segments])
     native_ms = float(np.mean(native ** 2)) if native.size else 0.0
     items = []
     wander = any(seg[5] is not None for seg in segments)
-    for residual, terms, sample_rate, start, group, scale in segments:
+    for residual, terms, sample_rate, start, group, scale, path in segments:
         step = max(1, int(round(sample_rate / rate_hz)))
         e = block_means(residual, step)
         blocked.append(e)
@@ -191,6 +193,7 @@ def structure_test(segments, swing, rate_hz=STRUCTURE_RATE_HZ, floor_share=STRUC
         parts.append((e, x))
         items.append((e.size, block_rate, start, group))
         scales.append(np.zeros(e.size) if scale is None else block_means(scale, step))
+        paths.append(path)
     # the nuisance terms of each segment, zero elsewhere (shared within a group)
     parts = [(e, x, u) for (e, x), u in zip(parts, nuisance_design(items))]
     n = sum(e.size for e, _, _ in parts)
@@ -203,7 +206,7 @@ def structure_test(segments, swing, rate_hz=STRUCTURE_RATE_HZ, floor_share=STRUC
     xs = [x[:, :cols] for _, x, _ in parts]
     k = parts[0][2].shape[1]
     nuis = [u for _, _, u in parts]
-    noise = (_WanderWhitener(items, scales, supply) if wander
+    noise = (_WanderWhitener(items, scales, supply, paths) if wander
              else _ArWhitener(math.exp(-1.0 / (block_rate * MAX_NOISE_TAU_S))))
     full = [np.column_stack([u, x]) for u, x in zip(nuis, xs)]
     # the unwhitened least-squares fit: the feasible GLS's start, and below the size of
@@ -276,8 +279,8 @@ class _WanderWhitener:
 
     order = 1
 
-    def __init__(self, items, scales, supply=None):
-        self.groups = groups_of(items, scales)
+    def __init__(self, items, scales, supply=None, paths=None):
+        self.groups = groups_of(items, scales, paths)
         self.noise, self.factors, self.fixed = None, None, supply
 
     @property

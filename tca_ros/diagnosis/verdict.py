@@ -10,6 +10,7 @@ import math
 import numpy as np
 
 from tca_ros.calibration.residuals import residual_stats
+from tca_ros.diagnosis.input_wander import WanderPath
 from tca_ros.diagnosis.noise import heldout_deviance_gain, structure_test
 from tca_ros.diagnosis.regressors import input_terms_in_runs, remove_nuisance_jointly
 from tca_ros.diagnosis.verdict_text import confirmed_sentence, verdict_sentence
@@ -46,6 +47,21 @@ def wander_scale(problem, channel, prediction, params=None):
         return None
     raised = _with_more_power(problem, params or problem.params)
     return (getattr(raised, channel) - prediction) / WANDER_STEP
+
+
+def wander_path(record, channel, params):
+    """Return the WanderPath of a commanded power's wander to ``channel`` of ``record``.
+
+    The lags in series from the heat input to the channel: the thermal time
+    constant (eq. 8) for both channels, and for the stroke the second thermal lag
+    and the sensor lag when ``params`` (TcaParams) has them; the dead time delays
+    the power of both (G63).
+    """
+    e = params.effects
+    lags = (thermal_time_constant(params.fiber, params.thermal),)
+    if channel == 'displacement':
+        lags += tuple(t for t in (e.second_thermal_lag, e.sensor_lag) if t > 0.0)
+    return WanderPath(record.power, record.sample_rate, lags, e.dead_time)
 
 
 def _with_more_power(problem, params):
@@ -134,10 +150,11 @@ def channel_stats(problems, sims, params=None, whole=False):
             rise = sim.temperature - par.thermal.ambient_temperature
             terms = input_terms_in_runs(predicted, rise, r.power, p.sample_rate, tau, runs)
             level = wander_scale(p, c, predicted, par)
+            path = None if level is None else wander_path(r, c, par)
             for (a, b), x in zip(runs, terms):
                 segments.append((measured[a:b] - predicted[a:b], x, p.sample_rate,
                                  float(r.time[a] - r.time[0]), id(p),
-                                 None if level is None else level[a:b]))
+                                 None if level is None else level[a:b], path))
             swing = max(swing, float(np.percentile(measured, 99.0)
                                      - np.percentile(measured, 1.0)))
             index = np.arange(r.time.size) if whole else p.full_heldout_index
