@@ -133,7 +133,7 @@ class WanderGroup:
 
     def __init__(self, times, scale, index, response=None):  # noqa: D107 -- on the class
         self.times, self.scale, self.index = times, scale, index
-        self.outer = np.outer(scale, scale)
+        self.outer = np.outer(scale, scale) if response is None else None
         self.response, self.window_lag = None, None
         if response is not None:  # (R, window centres): the lagged wander (WanderPath)
             rows, centres = response
