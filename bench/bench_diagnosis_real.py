@@ -122,21 +122,12 @@ def truth_structured(record_path, truth_file):
     """Return True when the plant's own model leaves structure on its logged record.
 
     The oracle: the truth params (effects included) simulated by the plant's
-    kinetostatic model from the logged inputs, judged by the verdict's test.
-    Where even the truth is structured (an unlogged power variation, a
-    defect outside the catalogue), no diagnosis can say 'explained'.
+    kinetostatic model from the logged inputs, judged by the verdict's test on
+    the held-out part the diagnosis uses (its default layout). Where even the
+    truth is structured (an unlogged power variation, a defect outside the
+    catalogue), no diagnosis can say 'explained'.
     """
-    from tca_ros.diagnosis.fitting import FitProblem, TRAIN_FRACTION
-    from tca_ros.diagnosis.holdout import choose_validation
-    from tca_ros.diagnosis.verdict import channel_stats
-    from tca_ros.params.files import load_params
-    from tca_ros.records.data import read_record
-    record, truth = read_record(record_path), load_params(truth_file)
-    # judged on the held-out part the diagnosis uses (its default layout)
-    problem = FitProblem(record, truth, model=truth.model,
-                         validation=choose_validation([record], TRAIN_FRACTION))
-    stats = channel_stats(problem, problem.simulate_full({}))
-    return any(st.structured for st in stats.values())
+    return _plant_leaves_structure([record_path], [truth_file], wholes=(False,))
 
 
 def effect_shows(record_paths, truth_files):
@@ -150,19 +141,30 @@ def effect_shows(record_paths, truth_files):
     shorter than a sample): no diagnosis can find it, and 'adequate' is what the
     records support.
     """
+    off = {names[0]: 0.0 for name, names in CATALOGUE.items() if name != 'coil_contact'}
+    return _plant_leaves_structure(record_paths, truth_files, wholes=(False, True),
+                                   values=off)
+
+
+def _plant_leaves_structure(record_paths, truth_files, wholes, values=None):
+    """Return True when the truths (with ``values`` set) leave structure by the verdict's test.
+
+    Each record simulated by its truth's model from its logged inputs; the
+    records judged together (channel_stats) on the held-out parts (``wholes``
+    holding False) and on the whole records (True).
+    """
     from tca_ros.diagnosis.fitting import FitProblem, TRAIN_FRACTION
     from tca_ros.diagnosis.holdout import choose_validation
     from tca_ros.diagnosis.verdict import channel_stats
     from tca_ros.params.files import load_params
     from tca_ros.records.data import read_record
     records = [read_record(path) for path in record_paths]
-    off = {names[0]: 0.0 for name, names in CATALOGUE.items() if name != 'coil_contact'}
     validation = choose_validation(records, TRAIN_FRACTION)
     truths = [load_params(path) for path in truth_files]
-    problems = [FitProblem(r, t.with_values(**off), model=t.model, validation=validation)
-                for r, t in zip(records, truths)]
+    problems = [FitProblem(r, t.with_values(**(values or {})), model=t.model,
+                           validation=validation) for r, t in zip(records, truths)]
     sims = [p.simulate_full({}) for p in problems]
-    return any(st.structured for whole in (False, True)
+    return any(st.structured for whole in wholes
                for st in channel_stats(problems, sims, whole=whole).values())
 
 
