@@ -9,7 +9,7 @@ where the stop would cut the nominal peak contraction of the record.
 from dataclasses import dataclass, field
 import math
 
-from tca_ros.model.effects import CATALOGUE, true_ambient
+from tca_ros.model.effects import CATALOGUE, heating_power, true_ambient
 from tca_ros.model.kinetostatic_models import make_kinetostatic_model
 from tca_ros.model.kinetostatics import loaded_length
 from tca_ros.model.kinetostatics import pitch_angle_of_length
@@ -254,6 +254,27 @@ def absorbed_candidates(candidates, recalibration):
         if space.high / space.low >= (1.0 - 1e-9) * high / low:
             absorbed.append(name)
     return [c for c in candidates if c.name not in absorbed], absorbed
+
+
+def twin_shift(name, params, described, spreads):
+    """Return how far effect ``name`` in ``params`` moves its twin, in prior spreads, or None.
+
+    An ABSORBED effect is its twin under another name: a power loss eta heats the
+    thread as a delivered power ratio r (1 - eta) would (effects.heating_power).
+    The shift is |ln(that ratio / the described one)| over the twin's prior spread
+    (``spreads``: STATED_AS's uncertainty entries -> spread of ln value,
+    physical_priors.prior_spreads, of the description ``described``). Within
+    SHIFT_Z spreads the description admits the effect as its twin: the search
+    refits the twin that far (recalibration_spaces) and credits the effect only
+    beyond. None for an effect without a twin or a twin without a stated spread.
+    """
+    twin = ABSORBED.get(name)
+    spread = (spreads or {}).get(STATED_AS.get(twin))
+    stated = _dotted(described, twin) if twin is not None and described is not None else 0.0
+    if not spread or stated <= 0.0:
+        return None
+    equivalent = heating_power(1.0, params.effects, _dotted(params, twin))
+    return abs(math.log(equivalent / stated)) / spread
 
 
 def contradicted_by_measurement(effects, values, candidates):
