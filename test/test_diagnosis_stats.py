@@ -163,42 +163,35 @@ def test_a_lag_effect_is_also_screened_with_the_dampings_lag_handed_over():
     assert lag == pytest.approx((1.0 - EXCHANGE_FACTOR) * 20.0 / k)
 
 
-def test_the_joint_calibration_takes_every_calibratable_candidate_in_the_first_rounds_order():
-    # by default every calibratable candidate of the first round, as it ranked them (coil
-    # contact's stop is geometry, not calibrated; G65: the ambient offset 9130, screened at
-    # 2 K after the calibration took it up, ranked seventh); with a ``top``, the best ones,
-    # and with a member of a family among them (the lags, the play operators) the rest of
-    # its family follows
+def test_the_joint_calibration_takes_the_first_rounds_best_and_the_lag_siblings():
+    # the first round's best JOINT_TOP calibratable candidates (coil contact's stop is
+    # geometry, not calibrated); with a member of a family among them (the lags, the play
+    # operators) the rest of its family follows
     from types import SimpleNamespace
     from tca_ros.calibration.candidates import build_candidates
     from tca_ros.diagnosis.joint import joint_order, JOINT_TOP
     from tca_ros.diagnosis.search import SearchRound
     from tca_ros.params.files import load_params
-    assert JOINT_TOP is None
     params = load_params('free_stroke', model='cst')
     candidates = build_candidates(params, 'cst', 0.2, 5e-3)
     ranking = ['coil_contact', 'dead_time', 'creep', 'hysteresis', 'radiation',
                'second_thermal_lag', 'sensor_lag', 'friction', 'creep_x']
     scores = [SimpleNamespace(name=n) for n in ranking]
-    rounds = [None, SearchRound([], 1.0, {}, scores)]
-    assert [c.name for c in joint_order(rounds, candidates)] == [
-        'dead_time', 'creep', 'hysteresis', 'radiation', 'second_thermal_lag', 'sensor_lag',
-        'friction']
-    order = [c.name for c in joint_order(rounds, candidates, top=3)]
-    assert order[:3] == ['dead_time', 'creep', 'hysteresis']
-    assert order[3:] == ['second_thermal_lag', 'sensor_lag', 'friction']
+    order = [c.name for c in joint_order([None, SearchRound([], 1.0, {}, scores)],
+                                         candidates)]
+    assert order[:JOINT_TOP] == ['dead_time', 'creep', 'hysteresis']
+    assert order[JOINT_TOP:] == ['second_thermal_lag', 'sensor_lag', 'friction']
     without_lag = [SimpleNamespace(name=n) for n in ['creep', 'hysteresis', 'radiation',
                                                      'dead_time']]
     assert [c.name for c in joint_order([SearchRound([], 1.0, {}, without_lag)],
-                                        candidates, top=3)] == ['creep', 'hysteresis',
-                                                                'radiation']
+                                        candidates)] == ['creep', 'hysteresis', 'radiation']
     assert joint_order([], candidates) == []
     # the effects a calibration's findings name come after them, once
     ranked = [SimpleNamespace(name=n) for n in ['creep', 'hysteresis', 'ambient_offset',
                                                 'dead_time']]
     order = [c.name for c in joint_order([SearchRound([], 1.0, {}, ranked)], candidates,
                                          extra=('power_loss', 'creep'))]
-    assert order == ['creep', 'hysteresis', 'ambient_offset', 'dead_time', 'power_loss']
+    assert order == ['creep', 'hysteresis', 'ambient_offset', 'power_loss']
 
 
 def test_pairs_start_from_single_joint_fits_that_help_and_take_partners_outside_their_family():

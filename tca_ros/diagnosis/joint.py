@@ -32,7 +32,7 @@ from tca_ros.diagnosis.verdict import channel_stats, heldout_gain_over, needs_ex
     pooled_heldout_rmse
 from tca_ros.model.tca_params import to_flat_dict
 
-JOINT_TOP = None  # candidates of the search's first round calibrated jointly (None: all)
+JOINT_TOP = 3  # candidates of the search's first round calibrated jointly, best first
 PAIR_LEADS = 2  # single joint fits that help without explaining, each tried with partners
 PAIR_PARTNERS = 2  # partners of each, from the search round that added it (or the first)
 MAX_PAIRS = 4  # pairs calibrated jointly at most
@@ -128,7 +128,7 @@ def joint_order(rounds, candidates, top=JOINT_TOP, extra=()):
         return []
     fittable = calibratable(candidates)
     ranked = [fittable[s.name] for s in first.scores if s.name in fittable]
-    order = ranked[:top] if top is not None else list(ranked)
+    order = ranked[:top]
     for family in FAMILIES:
         if any(c.name in family for c in order):
             order += [c for c in ranked[top:] if c.name in family and c not in order]
