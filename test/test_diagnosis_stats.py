@@ -243,18 +243,17 @@ def test_a_pair_is_taken_only_when_its_partner_pays_beyond_its_member_single():
     # took nonlinear convection at 1219 against 1255 alone)
     from tca_ros.diagnosis.joint import JointFit, pays_beyond_its_members
 
-    def fit(effects, criterion):
-        return JointFit(name=' + '.join(effects), values={}, n_params=len(effects), sims=[],
-                        criterion=criterion, explained=len(effects) == 2, pinned=[],
-                        effects=effects)
+    def single(name, criterion):
+        return JointFit(name=name, values={}, n_params=1, sims=[], criterion=criterion,
+                        explained=False, pinned=[])
 
-    singles = [fit(('dead_time',), 1254.8), fit(('sensor_lag',), 143.5)]
-    assert not pays_beyond_its_members(fit(('dead_time', 'nonlinear_convection'), 1219.2),
-                                       singles)
-    assert pays_beyond_its_members(fit(('dead_time', 'ambient_offset'), 1276.5), singles)
+    singles = [single('dead_time', 1254.8), single('sensor_lag', 143.5)]
+    assert not pays_beyond_its_members(('dead_time', 'nonlinear_convection'), 1219.2, singles)
+    assert pays_beyond_its_members(('dead_time', 'ambient_offset'), 1276.5, singles)
     # a member never calibrated alone sets no bar; both members' bars hold
-    assert pays_beyond_its_members(fit(('creep', 'hysteresis'), -3.0), singles)
-    assert not pays_beyond_its_members(fit(('sensor_lag', 'dead_time'), 1000.0), singles)
+    assert pays_beyond_its_members(('creep', 'hysteresis'), -3.0, singles)
+    assert not pays_beyond_its_members(('sensor_lag', 'dead_time'), 1000.0, singles)
+    assert pays_beyond_its_members(('dead_time',), 1.0, ())
 
 
 def test_a_power_loss_the_described_delivered_power_admits_is_not_an_effect():

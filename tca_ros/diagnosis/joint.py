@@ -138,7 +138,7 @@ def joint_order(rounds, candidates, top=JOINT_TOP, extra=()):
 
 
 def joint_calibrations(calibrate_with, problems, nominals, cal, candidates, groups,
-                       gate=True):
+                       gate=True, singles=()):
     """Return the JointFits of the candidate ``groups`` (each a tuple: one effect or a pair).
 
     ``calibrate_with(fit, start_values, like)`` runs the training-part
@@ -149,7 +149,9 @@ def joint_calibrations(calibrate_with, problems, nominals, cal, candidates, grou
     that does not fit the training part MIN_GAIN_PERCENT better than the nominal
     one cannot pass on the held-out part and is not simulated at the record rate
     (a finding's effect may fit it only as well, with the nominal values back
-    where the description has them: findings.py).
+    where the description has them: findings.py). ``singles``: the JointFits of
+    single effects a pair must do better than (:func:`pays_beyond_its_members`);
+    a pair that does not is dropped before its structure is tested.
     """
     fitted = list(cal.report.estimates)
     spreads = prior_spreads(cal.start)
@@ -170,19 +172,23 @@ def joint_calibrations(calibrate_with, problems, nominals, cal, candidates, grou
             sims = [p.simulate_full(values) for p in problems]
         except (ValueError, ArithmeticError):  # the full dynamics cannot run it
             continue
-        stats = channel_stats(problems, sims, [p.parameters(values) for p in problems])
         names = tuple(c.name for c in group)
         criterion = heldout_gain_over(problems, nominals, sims, len(own))
+        if not pays_beyond_its_members(names, criterion, singles):
+            continue
+        stats = channel_stats(problems, sims, [p.parameters(values) for p in problems])
+        pinned = parameters_at_bounds(list(names), values, candidates)
+        admitted = admitted_effects(names, joint.params, cal.start, spreads)
         confirmed = None
         whole = getattr(calibrate_with, 'whole', None)
-        if needs_explaining(stats) and criterion > DECISIVE_DEVIANCE and whole is not None:
+        if (needs_explaining(stats) and criterion > DECISIVE_DEVIANCE and whole is not None
+                and not pinned):  # a fit at a bound is taken nowhere
             confirmed = confirm_on_whole(whole, problems, cal, fitted + own, joint)
         out.append(JointFit(
             name=' + '.join(names), values=values, n_params=len(own), sims=sims,
             criterion=criterion, explained=not needs_explaining(stats) or bool(confirmed),
-            pinned=parameters_at_bounds(list(names), values, candidates), effects=names,
-            calibration=joint, confirmed=(confirmed, criterion) if confirmed else None,
-            admitted=admitted_effects(names, joint.params, cal.start, spreads)))
+            pinned=pinned, effects=names, calibration=joint,
+            confirmed=(confirmed, criterion) if confirmed else None, admitted=admitted))
     return out
 
 
@@ -316,10 +322,8 @@ def joint_extension(calibrate_with, problems, nominals, cal, candidates, rounds,
     if joint is None or leaves_finding(joint):
         # one effect helps but leaves structure, or explains the records only with a
         # value moved beyond the description: it and a partner
-        pairs = [p for p in joint_calibrations(calibrate_with, problems, nominals, cal,
-                                               candidates, pair_order(rounds, candidates,
-                                                                      fits, extra))
-                 if pays_beyond_its_members(p, fits)]
+        pairs = joint_calibrations(calibrate_with, problems, nominals, cal, candidates,
+                                   pair_order(rounds, candidates, fits, extra), singles=fits)
         pair, pair_rivals = best_joint(pairs, problems, nominals, nominal_rmse)
         if joint is None or (pair is not None and not leaves_finding(pair)):
             joint, rivals, fits = pair, pair_rivals, pairs
@@ -327,19 +331,20 @@ def joint_extension(calibrate_with, problems, nominals, cal, candidates, rounds,
         joint, fits, lambda f: lowers_heldout_rms(problems, f.sims, nominal_rmse))
 
 
-def pays_beyond_its_members(pair, singles):
-    """Return True when a pair's penalised held-out gain exceeds each member's own.
+def pays_beyond_its_members(effects, criterion, singles):
+    """Return True when a group's penalised held-out gain exceeds each member's own.
 
-    ``pair`` and ``singles`` are JointFits; a member not calibrated alone sets no
-    bar. The criterion is D - k ln(n) (verdict.heldout_gain_over), so a pair above
-    its member single has a partner whose held-out deviance gain pays its own
-    parameters' penalty. A partner that only clears the structure test the single
+    ``effects``: the group's effect names, ``criterion`` its penalised held-out
+    gain; ``singles``: JointFits of single effects. A member not calibrated alone
+    sets no bar. The criterion is D - k ln(n) (verdict.heldout_gain_over), so a
+    pair above its member single has a partner whose held-out deviance gain pays
+    its own parameters' penalty. A partner that only clears the structure test the single
     failed, while predicting the held-out part no better, names an effect the data
     do not ask for (a dead time of 0.87 s took nonlinear convection beside it at a
     lower gain, 1219 against 1255: decisions G65).
     """
-    bar = [f.criterion for f in singles if len(f.effects) == 1 and f.effects[0] in pair.effects]
-    return pair.criterion > max(bar, default=-math.inf)
+    bar = [f.criterion for f in singles if len(f.effects) == 1 and f.effects[0] in effects]
+    return criterion > max(bar, default=-math.inf)
 
 
 def leaves_finding(fit):
