@@ -238,7 +238,7 @@ def test_pairs_start_from_single_joint_fits_that_help_and_take_partners_outside_
 
 
 def test_a_pair_is_taken_only_when_its_partner_pays_beyond_its_member_single():
-    # G65: the criterion is D - k ln(n); a pair below the single it contains names a
+    # G64: the criterion is D - k ln(n); a pair below the single it contains names a
     # partner whose held-out gain does not pay for its parameter (the dead time 9136
     # took nonlinear convection at 1219 against 1255 alone)
     from tca_ros.diagnosis.joint import JointFit, pays_beyond_its_members
@@ -257,7 +257,7 @@ def test_a_pair_is_taken_only_when_its_partner_pays_beyond_its_member_single():
 
 
 def test_a_power_loss_the_described_delivered_power_admits_is_not_an_effect():
-    # G65: a power loss eta heats as a delivered power ratio r (1 - eta); within SHIFT_Z
+    # G64: a power loss eta heats as a delivered power ratio r (1 - eta); within SHIFT_Z
     # prior spreads of the described r it is the muscle as described (candidates.twin_shift)
     import math
     from tca_ros.calibration.candidates import twin_shift

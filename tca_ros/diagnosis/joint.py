@@ -199,7 +199,7 @@ def admitted_effects(names, params, described, spreads):
     power loss is a lower delivered power) and move it no more than SHIFT_Z prior
     spreads from the description ``described`` (candidates.twin_shift): a joint
     fit that needs no more says the muscle is as described, not that it has the
-    effect (a 2.9 % loss where the delivered power is stated to 4.6 %: decisions G65).
+    effect (a 2.9 % loss where the delivered power is stated to 4.6 %: decisions G64).
     """
     shifts = {n: twin_shift(n, params, described, spreads) for n in names}
     return tuple(n for n, z in shifts.items() if z is not None and z <= SHIFT_Z)
@@ -341,7 +341,7 @@ def pays_beyond_its_members(effects, criterion, singles):
     its own parameters' penalty. A partner that only clears the structure test the single
     failed, while predicting the held-out part no better, names an effect the data
     do not ask for (a dead time of 0.87 s took nonlinear convection beside it at a
-    lower gain, 1219 against 1255: decisions G65).
+    lower gain, 1219 against 1255: decisions G64).
     """
     bar = [f.criterion for f in singles if len(f.effects) == 1 and f.effects[0] in effects]
     return criterion > max(bar, default=-math.inf)
