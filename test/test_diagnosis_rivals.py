@@ -190,7 +190,7 @@ def test_a_single_that_needs_a_finding_gives_way_to_a_pair_that_leaves_none(monk
     answers = []
     monkeypatch.setattr(joint, 'joint_order', lambda rounds, candidates, extra=(): [])
     monkeypatch.setattr(joint, 'pair_order', lambda rounds, candidates, fits, extra=(): [])
-    monkeypatch.setattr(joint, 'joint_calibrations', lambda *args: answers.pop(0))
+    monkeypatch.setattr(joint, 'joint_calibrations', lambda *args, **kwargs: answers.pop(0))
     monkeypatch.setattr(joint, 'lowers_heldout_rms', lambda problems, sims, rmse: True)
 
     def extension(singles, pairs):

@@ -169,7 +169,7 @@ def test_the_joint_calibration_takes_the_first_rounds_best_and_the_lag_siblings(
     # operators) the rest of its family follows
     from types import SimpleNamespace
     from tca_ros.calibration.candidates import build_candidates
-    from tca_ros.diagnosis.joint import joint_order, JOINT_TOP
+    from tca_ros.diagnosis.joint_groups import joint_order, JOINT_TOP
     from tca_ros.diagnosis.search import SearchRound
     from tca_ros.params.files import load_params
     params = load_params('free_stroke', model='cst')
@@ -195,12 +195,13 @@ def test_the_joint_calibration_takes_the_first_rounds_best_and_the_lag_siblings(
 
 
 def test_pairs_start_from_single_joint_fits_that_help_and_take_partners_outside_their_family():
-    # joint.pair_order: leads are the single fits with a positive gain (best first); a
+    # joint_groups.pair_order: leads are the single fits with a positive gain (best first); a
     # lead the search added takes its partners from the round based on it, another
     # from the first round; never its own family or coil contact; no lead, no pair
     from types import SimpleNamespace
     from tca_ros.calibration.candidates import build_candidates
-    from tca_ros.diagnosis.joint import JointFit, MAX_PAIRS, pair_order
+    from tca_ros.diagnosis.joint import JointFit
+    from tca_ros.diagnosis.joint_groups import MAX_PAIRS, pair_order
     from tca_ros.diagnosis.search import SearchRound
     from tca_ros.params.files import load_params
     candidates = build_candidates(load_params('free_stroke', model='cst'), 'cst', 0.2, 5e-3)
