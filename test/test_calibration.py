@@ -291,3 +291,22 @@ def test_cli_calibrate_refuses_a_conical_tca_in_one_line(tmp_path, capsys):
     assert status == 2
     assert len(err.splitlines()) == 1 and "coil.shape = 'conical'" in err
     assert 'the conical TCA simulates but is not calibrated' in err
+
+
+def test_only_an_on_off_power_has_its_delivered_ratio_calibrated():
+    # decisions G65: an on/off log is a set level, so the power per logged watt is
+    # calibrated with the description's prior; a power at several levels keeps the
+    # described ratio, also when its header says it is the command (the wander of the
+    # delivered power is then the structure test's noise, G59-G63)
+    from tca_ros.calibration.calibration import is_nominal_power
+    from tca_ros.records.record import power_is_command, Record
+    t = np.arange(0.0, 10.0, 0.5)
+    steps = np.where(t < 5.0, 0.5, 1.0) * (t > 1.0)  # three levels: 0, 0.5 and 1 W
+    zero = np.zeros_like(t)
+    measured = Record(time=t, power=steps, load=zero + 0.2, displacement=zero)
+    command = Record(time=t, power=steps, load=zero + 0.2, displacement=zero,
+                     meta={'power_logged': 'command'})
+    on_off = Record(time=t, power=(t > 1.0) * 1.0, load=zero + 0.2, displacement=zero)
+    assert power_is_command(command) and not power_is_command(measured)
+    assert not is_nominal_power([measured]) and not is_nominal_power([command])
+    assert is_nominal_power([on_off]) and not is_nominal_power([on_off, command])
