@@ -104,6 +104,13 @@ STATED_AS = {'fiber.untwist_gain': 'actuation_gain',
 #: is not identifiable and is not searched; where the description states r more tightly,
 #: the loss beyond what r may take is the effect's (absorbed_candidates).
 ABSORBED = {'power_loss': 'thermal.delivered_power_ratio'}
+#: Effects that are an offset from a described value no calibration fits, with the
+#: uncertainty entry (in the value's unit) stating how well the description knows it:
+#: an ambient offset is the room at T_inf + offset where the description says T_inf
+STATED_OFFSETS = {'ambient_offset': ('effects.ambient_offset', 'ambient_temperature')}
+#: the uncertainty entry (K) of T_z, which a stroke without a temperature channel cannot
+#: tell from the ambient (twin_shift)
+CURVATURE_ENTRY = 'expansion_zero_temperature'
 CONTACT_START_FRACTIONS = (0.9, 0.75, 0.6, 0.45)  # stop at these fractions of the peak
 CONTACT_MARGIN_DEG = 0.05  # alpha_min stays this far below alpha* (validation rule)
 
@@ -256,7 +263,7 @@ def absorbed_candidates(candidates, recalibration):
     return [c for c in candidates if c.name not in absorbed], absorbed
 
 
-def twin_shift(name, params, described, spreads):
+def twin_shift(name, params, described, spreads, thermometer=True):
     """Return how far effect ``name`` in ``params`` moves its twin, in prior spreads, or None.
 
     An ABSORBED effect is its twin under another name: a power loss eta heats the
@@ -266,8 +273,21 @@ def twin_shift(name, params, described, spreads):
     physical_priors.prior_spreads, of the description ``described``). Within
     SHIFT_Z spreads the description admits the effect as its twin: the search
     refits the twin that far (recalibration_spaces) and credits the effect only
-    beyond. None for an effect without a twin or a twin without a stated spread.
+    beyond. An ambient offset (STATED_OFFSETS) is the described ambient moved: its
+    shift is |offset| over the stated uncertainty of the ambient (K). Without a
+    temperature channel (``thermometer`` False) the records see the temperature
+    only through the stroke, whose expansion rate 2 c2 (T - T_z) of eq. (2) a room
+    warmer by o moves as T_z lower by o would: the offset is then admitted within
+    the spread of T_inf - T_z, sqrt(u_ambient^2 + u_Tz^2) (decisions G66). None for
+    an effect without a twin or a twin without a stated spread.
     """
+    if name in STATED_OFFSETS:
+        dotted, entry = STATED_OFFSETS[name]
+        spreads = spreads or {}
+        spread = spreads.get(entry)
+        if spread and not thermometer:
+            spread = math.hypot(spread, spreads.get(CURVATURE_ENTRY, 0.0))
+        return abs(_dotted(params, dotted)) / spread if spread else None
     twin = ABSORBED.get(name)
     spread = (spreads or {}).get(STATED_AS.get(twin))
     stated = _dotted(described, twin) if twin is not None and described is not None else 0.0

@@ -17,7 +17,8 @@ from tca_ros.model.heat_transfer import natural_convection_coefficient, radiatio
 from tca_ros.model.thermal import heat_capacity, surface_area
 
 #: parameters whose uncertainty is in their unit (the rest relative: x/÷ (1 + u))
-LINEAR = ('expansion_zero_temperature', 'actuation_lag', 'expansion_plateau_temperature')
+LINEAR = ('expansion_zero_temperature', 'actuation_lag', 'expansion_plateau_temperature',
+          'ambient_temperature')
 #: the actuation lag's prior centre (s): about none (0 is its bound, where a fit could
 #: not start)
 ACTUATION_LAG_PRIOR = 0.5

@@ -214,6 +214,9 @@ SCHEMA = (
     _p('uncertainty.expansion_plateau_temperature', 40.0, 'K',
        'Uncertainty of T_p, above which dGamma/dT of eq. (2) holds (the rubbery plateau).',
        1e-3, 400.0),
+    _p('uncertainty.ambient_temperature', 2.0, 'K',
+       "Uncertainty of the room's temperature T_inf (a wall thermostat's); an ambient "
+       'offset within 2 of these is the description, not an effect.', 1e-3, 100.0),
 )
 
 SPECS = {s.name: s for s in SCHEMA}

@@ -142,8 +142,8 @@ class UncertaintyParams:
     """How well the description knows each calibrated quantity: the calibration's prior.
 
     Relative uncertainties (-: the prior is x/÷ (1 + u)) except
-    ``expansion_zero_temperature`` and ``expansion_plateau_temperature`` (K) and
-    ``actuation_lag`` (s).
+    ``expansion_zero_temperature``, ``expansion_plateau_temperature`` and
+    ``ambient_temperature`` (K) and ``actuation_lag`` (s).
     """
 
     heat_capacity: float = 0.3
@@ -155,6 +155,7 @@ class UncertaintyParams:
     expansion_zero_temperature: float = 20.0
     actuation_lag: float = 5.0
     expansion_plateau_temperature: float = 40.0
+    ambient_temperature: float = 2.0
 
 
 @dataclass(frozen=True)

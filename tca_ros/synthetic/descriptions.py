@@ -16,7 +16,10 @@ guessed    the start's (preset-like)                   LOOSE (x/÷ 2; damping x/
 The calibrated quantities described: the heat capacity m_t c_p and heat loss
 h c_s A_0 of eq. (1) (through fiber.specific_heat and thermal.convection_coefficient),
 the actuation gain (fiber.untwist_gain), the moduli E and G, the damping b_t of eq. (18)
-and the delivered power ratio. The geometry is the truth's in all three.
+and the delivered power ratio; the room's temperature is stated to 1 K and T_z of
+eq. (2) to 2 K (exact) or to the defaults (2 K, 20 K), and an ambient offset is off in
+all three. The geometry is the
+truth's in all three.
 """
 from tca_ros.model.params_schema import SPECS
 
@@ -27,6 +30,12 @@ ROUGH_SPREAD = (0.1, 0.3)  # -, how far a roughly known value is off, and its un
 LOOSE = {'heat_capacity': 1.0, 'heat_loss': 1.0, 'actuation_gain': 1.0,
          'stiffness_scale': 1.0, 'damping': 9.0, 'delivered_power_ratio': 0.5}
 RELATIVE = tuple(LOOSE)  # the described quantities with a relative uncertainty
+#: K, the room's temperature as a measured description states it (a thermometer in the
+#: room); the other two keep the default of `tca_sim config new` (a thermostat's 2 K)
+EXACT_AMBIENT_K = 1.0
+#: K, T_z of eq. (2) as a measured description states it (the truth's; the default 20 K
+#: is the paper's law on another thread)
+EXACT_CURVATURE_K = 2.0
 
 
 def _effects_off(params):
@@ -70,6 +79,8 @@ def describe(truth, start, tightness, rng, model='cst'):
         u = float(rng.uniform(*EXACT_SPREAD))
         params = _effects_off(truth)
         stated = {name: u for name in RELATIVE}
+        stated['ambient_temperature'] = EXACT_AMBIENT_K
+        stated['expansion_zero_temperature'] = EXACT_CURVATURE_K
     elif tightness == 'rough':
         s = float(rng.uniform(*ROUGH_SPREAD))
         factors = {name: 1.0 + float(rng.uniform(-s, s)) for name in RELATIVE}
