@@ -6,6 +6,7 @@ them again with all the nominal parameters free (:func:`joint_order`), and, when
 single one explains the records, pairs built from the singles that helped
 (:func:`pair_order`). docs/diagnosis_method.md, "Joint calibration".
 """
+from tca_ros.calibration.candidates import BOUND_SHARE
 from tca_ros.diagnosis.rivals import FAMILIES
 
 JOINT_TOP = 3  # candidates of the search's first round calibrated jointly, best first
@@ -44,7 +45,10 @@ def joint_order(rounds, candidates, top=JOINT_TOP, extra=()):
     if first is None:
         return []
     fittable = calibratable(candidates)
-    ranked = [fittable[s.name] for s in first.scores if s.name in fittable]
+    scored = [(s, fittable[s.name]) for s in first.scores if s.name in fittable]
+    # a refined fit that did not help has had its chance: after those not refined
+    ranked = ([c for s, c in scored if not had_its_chance(s, c)]
+              + [c for s, c in scored if had_its_chance(s, c)])
     order = ranked[:top]
     for family in FAMILIES:
         if any(c.name in family for c in order):
@@ -52,6 +56,26 @@ def joint_order(rounds, candidates, top=JOINT_TOP, extra=()):
     order += [fittable[n] for n in extra
               if n in fittable and fittable[n].starts and fittable[n] not in order]
     return order
+
+
+def had_its_chance(score, candidate):
+    """Return True when a first-round candidate was tried and did not help.
+
+    ``score``: ``candidate``'s CandidateScore. Refined, the nominal values were
+    refitted beside it, so its held-out score is mostly the refit's own: a refined
+    lag fitted to 0 s with no penalised held-out gain (criterion <= 0) stood, by
+    that score, ahead of an ambient offset screened without the refit (seed 9130:
+    two lags refitted to 0 s and a dead time screened at the 0 s the search's lag
+    exchange found, the 7.2 K offset seventh; decisions G66). So did one screened
+    at its size 0 (its first parameter, effects.CATALOGUE, within BOUND_SHARE of
+    its range, as candidates.parameters_at_bounds reads a bound): that is the base.
+    A candidate screened at a size, not refined, has not had that chance and keeps
+    its place.
+    """
+    space = candidate.spaces[0]
+    size = abs(score.fit.params.get(space.name, 0.0))
+    return (bool(score.refined and score.criterion <= 0.0)
+            or size <= BOUND_SHARE * (space.high - space.low))
 
 
 def pair_order(rounds, candidates, fits, extra=()):
