@@ -163,11 +163,53 @@ def test_a_lag_effect_is_also_screened_with_the_dampings_lag_handed_over():
     assert lag == pytest.approx((1.0 - EXCHANGE_FACTOR) * 20.0 / k)
 
 
+def _screened(name, refined=False, criterion=-1.0, size=None):
+    """Return a stand-in first-round CandidateScore of effect ``name``.
+
+    Screened (not refined) at half its largest size unless ``size`` is given.
+    """
+    from types import SimpleNamespace
+    from tca_ros.calibration.candidates import _SPACES
+    from tca_ros.model.effects import CATALOGUE
+    first = CATALOGUE.get(name, ('effects.none',))[0]
+    space = _SPACES.get(first, (None,))[0]
+    if size is None:
+        size = 0.5 * space.high if space is not None else 1.0
+    return SimpleNamespace(name=name, refined=refined, criterion=criterion,
+                           fit=SimpleNamespace(params={first: size}))
+
+
+def test_a_candidate_that_had_its_chance_in_the_first_round_goes_after_the_rest():
+    # seed 9130 (a 7.2 K ambient offset at 100 Hz, no thermometer): two lags refined to
+    # 0 s with no penalised gain and a dead time screened at 0 s ranked first by the
+    # refit's held-out score; the offset, screened without the refit, seventh. Those that
+    # had their chance go last, so the joint stage calibrates the offset (decisions G66).
+    from tca_ros.calibration.candidates import build_candidates
+    from tca_ros.diagnosis.joint_groups import had_its_chance, joint_order, JOINT_TOP
+    from tca_ros.diagnosis.search import SearchRound
+    from tca_ros.params.files import load_params
+    params = load_params('free_stroke', model='cst')
+    candidates = build_candidates(params, 'cst', 0.2, 5e-3)
+    by_name = {c.name: c for c in candidates}
+    scores = [_screened('sensor_lag', refined=True, criterion=-5.0, size=1e-9),
+              _screened('dead_time', size=2.8e-8),
+              _screened('second_thermal_lag', refined=True, criterion=-5.0, size=1e-9),
+              _screened('coil_contact'), _screened('friction'), _screened('hysteresis'),
+              _screened('ambient_offset', size=2.0), _screened('nonlinear_convection')]
+    assert [had_its_chance(s, by_name[s.name]) for s in scores[:3]] == [True] * 3
+    order = [c.name for c in joint_order([SearchRound([], 1.0, {}, scores)], candidates)]
+    assert order[:JOINT_TOP] == ['friction', 'hysteresis', 'ambient_offset']
+    assert 'nonlinear_convection' in order and 'sensor_lag' not in order
+    # refined with a gain, it keeps its place: it has not shown that it does not help
+    scores[0] = _screened('sensor_lag', refined=True, criterion=12.0, size=0.2)
+    order = [c.name for c in joint_order([SearchRound([], 1.0, {}, scores)], candidates)]
+    assert order[0] == 'sensor_lag' and 'second_thermal_lag' in order
+
+
 def test_the_joint_calibration_takes_the_first_rounds_best_and_the_lag_siblings():
     # the first round's best JOINT_TOP calibratable candidates (coil contact's stop is
     # geometry, not calibrated); with a member of a family among them (the lags, the play
     # operators) the rest of its family follows
-    from types import SimpleNamespace
     from tca_ros.calibration.candidates import build_candidates
     from tca_ros.diagnosis.joint_groups import joint_order, JOINT_TOP
     from tca_ros.diagnosis.search import SearchRound
@@ -176,19 +218,17 @@ def test_the_joint_calibration_takes_the_first_rounds_best_and_the_lag_siblings(
     candidates = build_candidates(params, 'cst', 0.2, 5e-3)
     ranking = ['coil_contact', 'dead_time', 'creep', 'hysteresis', 'radiation',
                'second_thermal_lag', 'sensor_lag', 'friction', 'creep_x']
-    scores = [SimpleNamespace(name=n) for n in ranking]
+    scores = [_screened(n) for n in ranking]
     order = [c.name for c in joint_order([None, SearchRound([], 1.0, {}, scores)],
                                          candidates)]
     assert order[:JOINT_TOP] == ['dead_time', 'creep', 'hysteresis']
     assert order[JOINT_TOP:] == ['second_thermal_lag', 'sensor_lag', 'friction']
-    without_lag = [SimpleNamespace(name=n) for n in ['creep', 'hysteresis', 'radiation',
-                                                     'dead_time']]
+    without_lag = [_screened(n) for n in ['creep', 'hysteresis', 'radiation', 'dead_time']]
     assert [c.name for c in joint_order([SearchRound([], 1.0, {}, without_lag)],
                                         candidates)] == ['creep', 'hysteresis', 'radiation']
     assert joint_order([], candidates) == []
     # the effects a calibration's findings name come after them, once
-    ranked = [SimpleNamespace(name=n) for n in ['creep', 'hysteresis', 'ambient_offset',
-                                                'dead_time']]
+    ranked = [_screened(n) for n in ['creep', 'hysteresis', 'ambient_offset', 'dead_time']]
     order = [c.name for c in joint_order([SearchRound([], 1.0, {}, ranked)], candidates,
                                          extra=('power_loss', 'creep'))]
     assert order == ['creep', 'hysteresis', 'ambient_offset', 'power_loss']
@@ -374,3 +414,77 @@ def test_one_load_is_a_single_load_level_over_all_records():
     assert holds_one_load([record([0.0] * 4)])
     assert not holds_one_load([record([0.2, 0.2, 0.4, 0.4])])  # a load step
     assert not holds_one_load([record([0.15] * 3), record([0.39] * 3)])  # two records
+
+
+def test_a_rival_left_structured_is_named_only_when_decisively_the_better_predictor():
+    # joint.decisive_despite_structure: the best of the rivals only the structure test
+    # set apart replaces the fit taken when its penalised held-out gain beats that fit's
+    # and every other passing fit's by more than DECISIVE_DEVIANCE (decisions G66); the
+    # verdict then says structure remains beside it
+    from tca_ros.diagnosis.joint import decisive_despite_structure, JointFit
+    from tca_ros.diagnosis.rivals import DECISIVE_DEVIANCE
+
+    def fit(name, criterion, explained=True):
+        return JointFit(name=name, values={}, n_params=1, sims=[], criterion=criterion,
+                        explained=explained, pinned=[])
+
+    named, other = fit('sensor_lag', 164.2), fit('second_thermal_lag', 150.5)
+    truth = fit('dead_time', 282.5, explained=False)
+    lead = decisive_despite_structure(named, [other], [truth])
+    assert lead is truth and 'sensor_lag' in lead.despite and '282.5' in lead.despite
+    close = fit('dead_time', 164.2 + 0.9 * DECISIVE_DEVIANCE, explained=False)
+    assert decisive_despite_structure(named, [other], [close]) is None
+    # the bar is the best passing fit, not only the one taken
+    assert decisive_despite_structure(named, [fit('friction', 280.0)], [truth]) is None
+    assert decisive_despite_structure(None, [], [truth]) is None
+    assert decisive_despite_structure(named, [other], []) is None
+
+
+def test_what_the_description_admits_and_explains_best_names_nothing():
+    # joint.described_lead: a fit whose effects the description all admits (an ambient
+    # offset within the stated room and T_z) that explains the records decisively better
+    # than the fit taken means the muscle is as described: nothing is named (seed 9059 at
+    # two loads, a sensor nonlinearity: a -7.1 K offset at 274 against a friction at 17)
+    from tca_ros.diagnosis.joint import described_lead, JointFit
+
+    def fit(name, criterion, admitted=(), explained=True, effects=()):
+        return JointFit(name=name, values={}, n_params=1, sims=[], criterion=criterion,
+                        explained=explained, pinned=[], admitted=tuple(admitted),
+                        effects=tuple(effects))
+
+    offset = fit('ambient_offset', 274.4, admitted=['ambient_offset'])
+    friction = fit('friction', 17.3)
+    always = lambda f: True  # noqa: E731
+    assert described_lead([offset, friction], friction, always) is offset
+    assert described_lead([offset, friction], None, always) is offset
+    assert described_lead([offset, friction], fit('friction', 270.0), always) is None
+    # a pair with one member admitted claims the other: not the description
+    pair = fit('ambient_offset + sensor_lag', 292.2, admitted=['ambient_offset'],
+               effects=['ambient_offset', 'sensor_lag'])
+    assert described_lead([pair, friction], friction, always) is None
+    structured = fit('ambient_offset', 274.4, admitted=['ambient_offset'], explained=False)
+    assert described_lead([structured, friction], friction, always) is None
+    assert described_lead([offset, friction], friction, lambda f: False) is None
+
+
+def test_an_ambient_offset_is_admitted_within_the_stated_room_and_without_a_thermometer_t_z():
+    # candidates.twin_shift: |offset| over the stated room uncertainty (K); without a
+    # temperature channel the stroke sees T - T_z only, so T_z's uncertainty adds in
+    # quadrature (decisions G66)
+    from tca_ros.calibration.candidates import twin_shift
+    from tca_ros.calibration.physical_priors import prior_spreads
+    from tca_ros.params.files import load_params
+    described = load_params('free_stroke').with_values(**{
+        'uncertainty.ambient_temperature': 1.0,
+        'uncertainty.expansion_zero_temperature': 2.0})
+    spreads = prior_spreads(described)
+    assert spreads['ambient_temperature'] == 1.0
+    warm = described.with_values(**{'effects.ambient_offset': -3.0})
+    assert twin_shift('ambient_offset', warm, described, spreads) == pytest.approx(3.0)
+    assert twin_shift('ambient_offset', warm, described, spreads, thermometer=False) == \
+        pytest.approx(3.0 / np.hypot(1.0, 2.0))
+    assert twin_shift('creep', warm, described, spreads) is None
+    # the default a new params file states: a thermostat's 2 K, T_z the paper's law's 20 K
+    default = load_params('free_stroke')
+    assert twin_shift('ambient_offset', warm, default, prior_spreads(default),
+                      thermometer=False) == pytest.approx(3.0 / np.hypot(2.0, 20.0))

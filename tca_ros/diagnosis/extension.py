@@ -12,8 +12,8 @@ from dataclasses import dataclass
 from tca_ros.calibration.candidates import contradicted_by_measurement, parameters_at_bounds
 from tca_ros.diagnosis.findings import explain_findings, finding_effects, findings_rival, \
     found_text, unexplained_findings
-from tca_ros.diagnosis.joint import beats_nominal, family_rivals, joint_extension, \
-    joint_notes
+from tca_ros.diagnosis.joint import beats_nominal, decisive_despite_structure, \
+    described_note, family_rivals, joint_extension, joint_notes
 from tca_ros.diagnosis.one_load import gain_took_up_softening, predictable_below_floor, \
     RIVAL as ONE_LOAD_RIVAL, softening_on_one_load
 from tca_ros.diagnosis.search import MIN_GAIN_PERCENT, search_effects
@@ -56,7 +56,7 @@ class Nominal:
 
     def adopted(self, fit):
         """Return (effects, values, sims, judgement) of a JointFit taken as the extension."""
-        effects = list(fit.effects)
+        effects = list(fit.claimed)
         return effects, fit.values, fit.sims, self.judged(effects, fit.values, fit.sims,
                                                           fit.confirmed)
 
@@ -147,10 +147,20 @@ def second_opinions(nominal, calibrate_with, effects, values, extendeds, rounds,
             # on one load a gain moved down may have taken up a softening: the search's
             # screen (a softening added on top of that gain) cannot see it (one_load.py)
             extra.append(ONE_LOAD_RIVAL)
-        joint, rivals, near = joint_extension(calibrate_with, nominal.problems, nominal.sims,
-                                              cal, nominal.candidates, rounds,
-                                              nominal.drift_free_rmse, extra=extra)
-        if joint is not None:
+        joint, rivals, near, described = joint_extension(
+            calibrate_with, nominal.problems, nominal.sims, cal, nominal.candidates, rounds,
+            nominal.drift_free_rmse, extra=extra)
+        if described is not None:  # the muscle as described explains it best: no finding
+            notes.append(described_note(described))
+            named_by_findings = []
+        lead = decisive_despite_structure(joint, rivals, near)
+        if lead is not None:  # decisively the better rival, though not all of the cause
+            notes.extend(joint_notes(joint, rivals, effects, near))
+            notes.append(f'{lead.name} is named instead of {joint.name}: {lead.despite}')
+            effects, values, extendeds, judgement = nominal.adopted(lead)
+            found, joint = True, lead
+            judgement = judgement[:3] + (found_sentence(effects, judgement[1], lead.despite),)
+        elif joint is not None:
             notes.extend(joint_notes(joint, rivals, effects, near))
             effects, values, extendeds, judgement = nominal.adopted(joint)
     if joint is None and judgement[2] != 'explained' and named_by_findings:
@@ -208,4 +218,8 @@ def second_opinions(nominal, calibrate_with, effects, values, extendeds, rounds,
         if taken is not None:
             effects, values, extendeds, judgement = nominal.adopted(taken)
             rmse, stats, verdict, explanation = judgement
+            if not taken.explained and verdict == 'unexplained':
+                # decisively the better rival, though not all of the cause (G66)
+                found = True
+                explanation = found_sentence(effects, stats, taken.despite)
     return effects, values, extendeds, (rmse, stats, verdict, explanation), found
