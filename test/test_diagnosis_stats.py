@@ -467,6 +467,28 @@ def test_what_the_description_admits_and_explains_best_names_nothing():
     assert described_lead([offset, friction], friction, lambda f: False) is None
 
 
+def test_a_pair_with_a_member_the_description_admits_names_the_other(monkeypatch):
+    # joint.best_joint and JointFit.claimed: seed 9135 at two loads (a dead time, no
+    # thermometer) explained by a dead time and an ambient offset within the stated room
+    # and T_z (gain 1976.5); before, the pair was dropped whole and a sensor lag +
+    # hysteresis at 655.3 was named (decisions G66)
+    from tca_ros.diagnosis import joint
+    from tca_ros.diagnosis.joint import best_joint, JointFit
+    monkeypatch.setattr(joint, 'lowers_heldout_rms', lambda *args: True)
+
+    def fit(effects, criterion, admitted=()):
+        return JointFit(name=' + '.join(effects), values={}, n_params=len(effects), sims=[],
+                        criterion=criterion, explained=True, pinned=[],
+                        admitted=tuple(admitted), effects=tuple(effects))
+
+    pair = fit(['dead_time', 'ambient_offset'], 1976.5, admitted=['ambient_offset'])
+    other = fit(['sensor_lag', 'hysteresis'], 655.3)
+    best, rivals = best_joint([other, pair], [], [], {})
+    assert best is pair and best.claimed == ('dead_time',) and rivals == [other]
+    alone = fit(['ambient_offset'], 2000.0, admitted=['ambient_offset'])
+    assert alone.claimed == () and best_joint([alone, other], [], [], {})[0] is other
+
+
 def test_an_ambient_offset_is_admitted_within_the_stated_room_and_without_a_thermometer_t_z():
     # candidates.twin_shift: |offset| over the stated room uncertainty (K); without a
     # temperature channel the stroke sees T - T_z only, so T_z's uncertainty adds in
