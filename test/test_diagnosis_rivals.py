@@ -2,8 +2,9 @@
 from types import SimpleNamespace
 
 from tca_ros.calibration.candidates import Candidate
-from tca_ros.diagnosis import joint
-from tca_ros.diagnosis.joint import DECISIVE_DEVIANCE, family_rivals, JointFit
+from tca_ros.diagnosis import family_rivals as rivals_module, joint
+from tca_ros.diagnosis.family_rivals import family_rivals
+from tca_ros.diagnosis.joint import DECISIVE_DEVIANCE, JointFit
 
 
 def _candidate(name, dotted):
@@ -28,8 +29,8 @@ def _notes(monkeypatch, fits, found='second_thermal_lag', rms_ok=lambda sims: Tr
         asked.extend(c.name for group in groups for c in group)
         return fits
 
-    monkeypatch.setattr(joint, 'joint_calibrations', fake_calibrations)
-    monkeypatch.setattr(joint, 'lowers_heldout_rms',
+    monkeypatch.setattr(rivals_module, 'joint_calibrations', fake_calibrations)
+    monkeypatch.setattr(rivals_module, 'lowers_heldout_rms',
                         lambda problems, sims, rmse: rms_ok(sims))
     taken, notes = family_rivals(None, [], [], None, CANDIDATES, found, {})
     assert taken is None or taken in fits
@@ -60,7 +61,7 @@ def test_a_structured_rival_as_good_on_the_held_out_part_is_said(monkeypatch):
     # seed 9121's joint fits before G56 (a second thermal lag, thermometer on): the sensor
     # lag left 0.94 x the structure floor, the second lag 1.05 x, at gains 539.0 and 540.4; only
     # the threshold sets them apart, so the rival is said; one decisively worse is not
-    monkeypatch.setattr(joint, 'rival_experiment_notes', lambda named, rivals: [
+    monkeypatch.setattr(rivals_module, 'rival_experiment_notes', lambda named, rivals: [
         f'experiment {named.name} / {r.name}' for r in rivals])
     fits = [_fit('sensor_lag', 539.0), _fit('second_thermal_lag', 540.4, explained=False),
             _fit('dead_time', 528.0, explained=False)]
@@ -88,7 +89,7 @@ def test_lags_and_play_operators_are_each_others_rivals(monkeypatch):
     def fake_calibrations(calibrate_with, problems, nominals, cal, candidates, groups):
         asked.extend(c.name for group in groups for c in group)
         return []
-    monkeypatch.setattr(joint, 'joint_calibrations', fake_calibrations)
+    monkeypatch.setattr(rivals_module, 'joint_calibrations', fake_calibrations)
     family_rivals(None, [], [], None, CANDIDATES + play, 'second_thermal_lag', {})
     assert asked == ['second_thermal_lag', 'sensor_lag', 'dead_time', 'friction', 'hysteresis']
 
@@ -102,8 +103,8 @@ def test_a_rival_decisively_better_jointly_replaces_the_searched_effect(monkeypa
     def run(rival_gain):
         fits = [_fit('dead_time', 266.2), _fit('sensor_lag', rival_gain),
                 _fit('second_thermal_lag', 183.0)]
-        monkeypatch.setattr(joint, 'joint_calibrations', lambda *a, **k: fits)
-        monkeypatch.setattr(joint, 'lowers_heldout_rms', lambda problems, sims, rmse: True)
+        monkeypatch.setattr(rivals_module, 'joint_calibrations', lambda *a, **k: fits)
+        monkeypatch.setattr(rivals_module, 'lowers_heldout_rms', lambda problems, sims, rmse: True)
         return family_rivals(None, [], [], None, CANDIDATES, 'dead_time', {})
 
     taken, notes = run(766.2)
@@ -158,8 +159,8 @@ def test_a_named_pair_has_its_rivals_with_one_member_swapped(monkeypatch):
         asked.extend(tuple(c.name for c in group) for group in groups)
         return fits
 
-    monkeypatch.setattr(joint, 'joint_calibrations', fake_calibrations)
-    monkeypatch.setattr(joint, 'lowers_heldout_rms', lambda problems, sims, rmse: True)
+    monkeypatch.setattr(rivals_module, 'joint_calibrations', fake_calibrations)
+    monkeypatch.setattr(rivals_module, 'lowers_heldout_rms', lambda problems, sims, rmse: True)
     fits = [_pair(*found, 426.7), _pair('creep', 'sensor_lag', 423.4),
             _pair('creep', 'dead_time', 120.0)]
     taken, notes = family_rivals(None, [], [], None, CANDIDATES, found, {})

@@ -417,11 +417,12 @@ def test_one_load_is_a_single_load_level_over_all_records():
 
 
 def test_a_rival_left_structured_is_named_only_when_decisively_the_better_predictor():
-    # joint.decisive_despite_structure: the best of the rivals only the structure test
+    # family_rivals.decisive_despite_structure: the best of the rivals only the structure test
     # set apart replaces the fit taken when its penalised held-out gain beats that fit's
     # and every other passing fit's by more than DECISIVE_DEVIANCE (decisions G66); the
     # verdict then says structure remains beside it
-    from tca_ros.diagnosis.joint import decisive_despite_structure, JointFit
+    from tca_ros.diagnosis.family_rivals import decisive_despite_structure
+    from tca_ros.diagnosis.joint import JointFit
     from tca_ros.diagnosis.rivals import DECISIVE_DEVIANCE
 
     def fit(name, criterion, explained=True):

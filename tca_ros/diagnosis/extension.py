@@ -10,10 +10,10 @@ part shows only estimation error), the findings' effects tested as their cause
 from dataclasses import dataclass
 
 from tca_ros.calibration.candidates import contradicted_by_measurement, parameters_at_bounds
+from tca_ros.diagnosis.family_rivals import decisive_despite_structure, family_rivals
 from tca_ros.diagnosis.findings import explain_findings, finding_effects, findings_rival, \
     found_text, unexplained_findings
-from tca_ros.diagnosis.joint import beats_nominal, decisive_despite_structure, \
-    described_note, family_rivals, joint_extension, joint_notes
+from tca_ros.diagnosis.joint import beats_nominal, described_note, joint_extension, joint_notes
 from tca_ros.diagnosis.one_load import gain_took_up_softening, predictable_below_floor, \
     RIVAL as ONE_LOAD_RIVAL, softening_on_one_load
 from tca_ros.diagnosis.search import MIN_GAIN_PERCENT, search_effects
@@ -130,7 +130,7 @@ def second_opinions(nominal, calibrate_with, effects, values, extendeds, rounds,
     model leaves adequate while its calibration moved values beyond the description
     gets those effects tested as the finding's cause (findings.py); an explanation
     with a parameter at the end of its range is not one; a single effect of a
-    family, or a pair, gets its rivals said (joint.family_rivals).
+    family, or a pair, gets its rivals said (family_rivals.py).
     """
     # an explanation with a parameter at the end of its range is none: the joint stage
     # and the findings' effects get their chance at what it stands in for

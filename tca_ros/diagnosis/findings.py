@@ -45,8 +45,9 @@ from dataclasses import dataclass
 import math
 
 from tca_ros.calibration.physical_priors import SHIFT_Z
-from tca_ros.diagnosis.joint import calibratable, changed_values, DECISIVE_DEVIANCE, \
-    joint_calibrations, lowers_heldout_rms
+from tca_ros.diagnosis.joint import changed_values, DECISIVE_DEVIANCE, joint_calibrations, \
+    lowers_heldout_rms
+from tca_ros.diagnosis.joint_groups import calibratable
 from tca_ros.diagnosis.rivals import rival_experiment_notes
 from tca_ros.diagnosis.verdict import heldout_deviance, pooled_heldout_rmse
 

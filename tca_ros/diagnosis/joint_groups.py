@@ -46,7 +46,7 @@ def joint_order(rounds, candidates, top=JOINT_TOP, extra=()):
         return []
     fittable = calibratable(candidates)
     scored = [(s, fittable[s.name]) for s in first.scores if s.name in fittable]
-    # a refined fit that did not help has had its chance: after those not refined
+    # those that had their chance in the first round go after the rest
     ranked = ([c for s, c in scored if not had_its_chance(s, c)]
               + [c for s, c in scored if had_its_chance(s, c)])
     order = ranked[:top]

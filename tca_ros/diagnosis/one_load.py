@@ -34,8 +34,8 @@ softening's share of the stroke scales with the force and the gain's does not.
 """
 from tca_ros.calibration.experiments import separating_experiment
 from tca_ros.diagnosis.findings import weigh_finding_effect
-from tca_ros.diagnosis.joint import calibratable, DECISIVE_DEVIANCE, joint_calibrations, \
-    lowers_heldout_rms
+from tca_ros.diagnosis.joint import DECISIVE_DEVIANCE, joint_calibrations, lowers_heldout_rms
+from tca_ros.diagnosis.joint_groups import calibratable
 from tca_ros.diagnosis.noise import STRUCTURE_ALPHA
 from tca_ros.diagnosis.search import MIN_GAIN_PERCENT
 from tca_ros.diagnosis.verdict import pooled_heldout_rmse
