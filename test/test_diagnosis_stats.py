@@ -511,3 +511,27 @@ def test_an_ambient_offset_is_admitted_within_the_stated_room_and_without_a_ther
     default = load_params('free_stroke')
     assert twin_shift('ambient_offset', warm, default, prior_spreads(default),
                       thermometer=False) == pytest.approx(3.0 / np.hypot(2.0, 20.0))
+
+
+def test_a_partner_beside_the_description_s_own_slack_claims_nothing():
+    # joint.stands_alone: a pair with an admitted member names the other only when that
+    # one helped alone (a lead). Seed 9059 at two loads: a 0.031 s sensor lag, paired with
+    # a -7.1 K offset the guessed description admits, failed alone; seed 9135: the dead
+    # time paired with an admitted offset was the lead (decisions G66)
+    from tca_ros.diagnosis.joint import JointFit, stands_alone
+
+    def fit(effects, criterion, admitted=()):
+        return JointFit(name=' + '.join(effects), values={}, n_params=len(effects), sims=[],
+                        criterion=criterion, explained=True, pinned=[],
+                        admitted=tuple(admitted), effects=tuple(effects))
+
+    singles = [fit(['ambient_offset'], 274.4, admitted=['ambient_offset']),
+               fit(['friction'], 17.3), fit(['dead_time'], -4.0)]
+    assert not stands_alone(fit(['ambient_offset', 'sensor_lag'], 292.2,
+                                admitted=['ambient_offset']), singles)
+    assert not stands_alone(fit(['dead_time', 'ambient_offset'], 300.0,
+                                admitted=['ambient_offset']), singles)  # no gain alone
+    singles.append(fit(['dead_time'], 1500.0))
+    assert stands_alone(fit(['dead_time', 'ambient_offset'], 1976.5,
+                            admitted=['ambient_offset']), singles)
+    assert stands_alone(fit(['friction', 'sensor_lag'], 21.4), singles)  # nothing admitted

@@ -258,6 +258,7 @@ def joint_extension(calibrate_with, problems, nominals, cal, candidates, rounds,
         # value moved beyond the description: it and a partner
         pairs = joint_calibrations(calibrate_with, problems, nominals, cal, candidates,
                                    pair_order(rounds, candidates, fits, extra), singles=fits)
+        pairs = [p for p in pairs if stands_alone(p, fits)]
         pair, pair_rivals = best_joint(pairs, problems, nominals, nominal_rmse)
         if joint is None or (pair is not None and not leaves_finding(pair)):
             joint, rivals, fits = pair, pair_rivals, pairs
@@ -303,6 +304,23 @@ def described_lead(fits, taken, lowers_rms):
     if taken is not None and not best.criterion > taken.criterion + DECISIVE_DEVIANCE:
         return None
     return best
+
+
+def stands_alone(pair, singles):
+    """Return True unless a pair's claim rests on a partner beside an admitted member.
+
+    ``pair``: a JointFit of two effects; ``singles``: the single JointFits. A pair
+    with a member the description admits (``admitted``) names the other
+    (JointFit.claimed) only when that one, calibrated alone, had a positive
+    penalised held-out gain: the lead it was paired from. A partner chosen to
+    complement a fit of the description's own slack has not shown it helps (a
+    0.031 s sensor lag beside a -7.1 K offset within the stated room and T_z, on the
+    two-load sensor nonlinearity 9059: decisions G66).
+    """
+    if not pair.admitted:
+        return True
+    helped = {f.effects[0] for f in singles if len(f.effects) == 1 and f.criterion > 0.0}
+    return bool(set(pair.claimed) & helped)
 
 
 def pays_beyond_its_members(effects, criterion, singles):
