@@ -44,9 +44,9 @@ import time
 from bench_diagnosis_real import effect_shows, EFFECTS, group_of, truth_structured
 import numpy as np
 
-from tca_ros.calibration.candidates import twin_shift
-from tca_ros.calibration.physical_priors import prior_spreads, SHIFT_Z
+from tca_ros.calibration.physical_priors import prior_spreads
 from tca_ros.diagnosis import diagnose
+from tca_ros.diagnosis.joint import admitted_effects
 from tca_ros.params.files import dump_params, load_params
 from tca_ros.synthetic.descriptions import describe, TIGHTNESS
 from tca_ros.synthetic.realistic import conditions, OUTSIDE, realistic_case, \
@@ -120,15 +120,13 @@ def run_case(args):
 def admitted_by(hidden, truth, described, condition):
     """Return the hidden effects whose size the description ``described`` admits.
 
-    candidates.twin_shift on the truth, as the diagnosis reads a joint fit
-    (joint.admitted_effects): a power loss within 2 prior spreads of the stated
-    delivered power, an ambient offset within 2 of the room's stated uncertainty
-    (and, without a thermometer, T_z's). Naming nothing is then right too.
+    joint.admitted_effects on the truth, as the diagnosis reads a joint fit: a power
+    loss within 2 prior spreads of the stated delivered power, an ambient offset
+    within 2 of the room's stated uncertainty (and, without a thermometer, T_z's).
+    Naming nothing is then right too.
     """
-    spreads = prior_spreads(described)
-    shifts = {h: twin_shift(h, truth, described, spreads, condition['temperature'])
-              for h in hidden}
-    return [h for h, z in shifts.items() if z is not None and z <= SHIFT_Z]
+    return list(admitted_effects(hidden, truth, described, prior_spreads(described),
+                                 condition['temperature']))
 
 
 def right(row):

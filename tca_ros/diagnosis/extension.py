@@ -60,6 +60,19 @@ class Nominal:
         return effects, fit.values, fit.sims, self.judged(effects, fit.values, fit.sims,
                                                           fit.confirmed)
 
+    def adopted_despite(self, fit):
+        """Return adopted()'s tuple and whether ``fit`` is found with structure beside it.
+
+        ``fit``: a rival named though it leaves structure
+        (family_rivals.decisive_despite_structure): an 'unexplained' verdict names it
+        with its reason (``fit.despite``) and says what remains.
+        """
+        effects, values, sims, judgement = self.adopted(fit)
+        if judgement[2] != 'unexplained':
+            return effects, values, sims, judgement, False
+        sentence = found_sentence(effects, judgement[1], fit.despite)
+        return effects, values, sims, judgement[:3] + (sentence,), True
+
 
 def run_search(nominal, notes):
     """Return (effects, values, extended sims, rounds) of the greedy effect search.
@@ -157,9 +170,8 @@ def second_opinions(nominal, calibrate_with, effects, values, extendeds, rounds,
         if lead is not None:  # decisively the better rival, though not all of the cause
             notes.extend(joint_notes(joint, rivals, effects, near))
             notes.append(f'{lead.name} is named instead of {joint.name}: {lead.despite}')
-            effects, values, extendeds, judgement = nominal.adopted(lead)
-            found, joint = True, lead
-            judgement = judgement[:3] + (found_sentence(effects, judgement[1], lead.despite),)
+            effects, values, extendeds, judgement, found = nominal.adopted_despite(lead)
+            joint = lead
         elif joint is not None:
             notes.extend(joint_notes(joint, rivals, effects, near))
             effects, values, extendeds, judgement = nominal.adopted(joint)
@@ -216,10 +228,9 @@ def second_opinions(nominal, calibrate_with, effects, values, extendeds, rounds,
                                     nominal.drift_free_rmse)
         notes.extend(said)
         if taken is not None:
-            effects, values, extendeds, judgement = nominal.adopted(taken)
+            if taken.despite is not None:  # decisively the better rival, structured (G66)
+                effects, values, extendeds, judgement, found = nominal.adopted_despite(taken)
+            else:
+                effects, values, extendeds, judgement = nominal.adopted(taken)
             rmse, stats, verdict, explanation = judgement
-            if not taken.explained and verdict == 'unexplained':
-                # decisively the better rival, though not all of the cause (G66)
-                found = True
-                explanation = found_sentence(effects, stats, taken.despite)
     return effects, values, extendeds, (rmse, stats, verdict, explanation), found

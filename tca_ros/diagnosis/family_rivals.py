@@ -70,7 +70,7 @@ def family_rivals(calibrate_with, problems, nominals, cal, candidates, found, no
 
 
 def decisive_despite_structure(named, passing, near):
-    """Return the rival that replaces ``named`` though it leaves structure, or None.
+    """Return the rival that replaces ``named`` though it leaves structure (its ``despite`` set).
 
     ``named``: the JointFit taken; ``passing``: the others that explain the
     records too; ``near``: the rivals that pass every rule but the structure test
