@@ -115,3 +115,46 @@ def test_task_and_record_layouts_round_trip():
                      ([1, 2, 0.0, 0.0, 0.3, -0.1], 'load -0.1 N')):
         with pytest.raises(ValueError, match=why):
             parse_task(bad)
+
+
+class _DroppingClient:
+    """A service client whose first ``drops`` requests get no response (a response
+    Fast DDS dropped), then answered with ``response``."""
+
+    def __init__(self, drops, response):
+        self.sent, self.removed = 0, 0
+        self._drops, self._response = drops, response
+
+    def call_async(self, request):
+        from rclpy.task import Future
+        self.sent += 1
+        future = Future()
+        if self.sent > self._drops:
+            future.set_result(self._response)
+        return future
+
+    def remove_pending_request(self, future):
+        self.removed += 1
+
+
+def test_a_dropped_get_parameters_response_is_asked_again_until_the_timeout(monkeypatch):
+    """A request left unanswered is sent again every RESEND_AFTER s (the earlier one is
+    forgotten) until one is answered; nothing answering within timeout gives None."""
+    from types import SimpleNamespace
+    from tca_ros.cli import score_ros
+    clock = [0.0]
+    monkeypatch.setattr(score_ros.time, 'monotonic', lambda: clock[0])
+
+    def spin_until(predicate, wait):  # the fake executor: the wait passes, no callback
+        if predicate():
+            return True
+        clock[0] += wait
+        return False
+    scorer = SimpleNamespace(timeout=10.0, _spin_until=spin_until)
+    client = _DroppingClient(2, 'values')
+    assert score_ros.RosScorer._call(scorer, client, 'request') == 'values'
+    assert (client.sent, client.removed, clock[0]) == (3, 2, 2 * score_ros.RESEND_AFTER)
+    clock[0] = 0.0
+    silent = _DroppingClient(100, 'values')
+    assert score_ros.RosScorer._call(scorer, silent, 'request') is None
+    assert clock[0] == 10.0 and silent.sent == 5 == silent.removed
