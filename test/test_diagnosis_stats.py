@@ -513,6 +513,37 @@ def test_an_ambient_offset_is_admitted_within_the_stated_room_and_without_a_ther
                       thermometer=False) == pytest.approx(3.0 / np.hypot(2.0, 20.0))
 
 
+def test_radiation_is_admitted_as_the_stated_heat_loss_it_adds_to():
+    # candidates.twin_shift: radiation of emissivity eps is the described h c_s A_0 plus
+    # 4 eps sigma T_m^3 A_0, T_m midway to REFERENCE_RISE_K above the true ambient; the
+    # shift of the sum in heat-loss prior spreads (decisions G67)
+    import math
+    from tca_ros.calibration.candidates import loss_with_radiation, twin_shift
+    from tca_ros.calibration.physical_priors import prior_spreads
+    from tca_ros.model.effects import STEFAN_BOLTZMANN
+    from tca_ros.model.thermal import surface_area, thermal_conductance
+    from tca_ros.params.files import load_params
+    described = load_params('free_stroke').with_values(**{'uncertainty.heat_loss': 0.04})
+    spreads = prior_spreads(described)
+    grey = described.with_values(**{'effects.emissivity': 0.6})
+    g = thermal_conductance(described.fiber, described.thermal)
+    t_m = described.thermal.ambient_temperature + 25.0 + 273.15  # K
+    g_rad = 4.0 * 0.6 * STEFAN_BOLTZMANN * t_m ** 3 * surface_area(described.fiber)
+    assert loss_with_radiation(grey) == pytest.approx(g + g_rad)
+    assert loss_with_radiation(described) == pytest.approx(g)
+    shift = twin_shift('radiation', grey, described, spreads)
+    assert shift == pytest.approx(math.log1p(g_rad / g) / math.log1p(0.04))
+    # a warmer room radiates more; a heat loss described lower by the radiation admits it
+    warm = grey.with_values(**{'effects.ambient_offset': 10.0})
+    assert twin_shift('radiation', warm, described, spreads) > shift
+    lower = described.with_values(**{'thermal.convection_coefficient':
+                                     described.thermal.convection_coefficient * (g - g_rad) / g})
+    assert twin_shift('radiation', grey, lower, spreads) == pytest.approx(
+        math.log((g + g_rad) / (g - g_rad)) / math.log1p(0.04))
+    assert twin_shift('radiation', lower.with_values(**{'effects.emissivity': 0.6}),
+                      described, spreads) == pytest.approx(0.0, abs=1e-9)
+
+
 def test_a_partner_beside_the_description_s_own_slack_claims_nothing():
     # joint.stands_alone: a pair with an admitted member names the other only when that
     # one helped alone (a lead). Seed 9059 at two loads: a 0.031 s sensor lag, paired with

@@ -10,10 +10,12 @@ from dataclasses import dataclass, field
 import math
 
 from tca_ros.model.effects import CATALOGUE, heating_power, true_ambient
+from tca_ros.model.heat_transfer import radiation_coefficient, REFERENCE_RISE_K
 from tca_ros.model.kinetostatic_models import make_kinetostatic_model
 from tca_ros.model.kinetostatics import loaded_length
 from tca_ros.model.kinetostatics import pitch_angle_of_length
 from tca_ros.model.params_schema import SPECS
+from tca_ros.model.thermal import surface_area, thermal_conductance
 
 
 @dataclass(frozen=True)
@@ -108,6 +110,11 @@ ABSORBED = {'power_loss': 'thermal.delivered_power_ratio'}
 #: uncertainty entry (in the value's unit) stating how well the description knows it:
 #: an ambient offset is the room at T_inf + offset where the description says T_inf
 STATED_OFFSETS = {'ambient_offset': ('effects.ambient_offset', 'ambient_temperature')}
+#: Effects that add to the heat loss h c_s A_0 the description states (the uncertainty
+#: entry): radiation of emissivity eps is, linearised at the rise a still-air loss is
+#: quoted at (heat_transfer.REFERENCE_RISE_K), 4 eps sigma T_m^3 A_0 more of it; the
+#: still-air reference of the heat loss counts radiation in (physical_priors)
+LOSS_TWINS = {'radiation': 'heat_loss'}
 #: the uncertainty entry (K) of T_z, which a stroke without a temperature channel cannot
 #: tell from the ambient (twin_shift)
 CURVATURE_ENTRY = 'expansion_zero_temperature'
@@ -279,8 +286,15 @@ def twin_shift(name, params, described, spreads, thermometer=True):
     only through the stroke, whose expansion rate 2 c2 (T - T_z) of eq. (2) a room
     warmer by o moves as T_z lower by o would: the offset is then admitted within
     the spread of T_inf - T_z, sqrt(u_ambient^2 + u_Tz^2) (decisions G66). None for
-    an effect without a twin or a twin without a stated spread.
+    an effect without a twin or a twin without a stated spread. Radiation (LOSS_TWINS)
+    is the stated heat loss with its linearised conductance added (loss_with_radiation).
     """
+    if name in LOSS_TWINS:
+        spread = (spreads or {}).get(LOSS_TWINS[name])
+        if not spread or described is None:
+            return None
+        stated = thermal_conductance(described.fiber, described.thermal)
+        return abs(math.log(loss_with_radiation(params) / stated)) / spread
     if name in STATED_OFFSETS:
         dotted, entry = STATED_OFFSETS[name]
         spreads = spreads or {}
@@ -295,6 +309,17 @@ def twin_shift(name, params, described, spreads, thermometer=True):
         return None
     equivalent = heating_power(1.0, params.effects, _dotted(params, twin))
     return abs(math.log(equivalent / stated)) / spread
+
+
+def loss_with_radiation(params):
+    """Return h c_s A_0 + 4 eps sigma T_m^3 A_0 (W/K): eq. (1)'s loss, radiation linearised.
+
+    T_m (K) is the mean of the true ambient and REFERENCE_RISE_K above it, the rise a
+    still-air heat loss is quoted at; eps the 'radiation' effect's emissivity.
+    """
+    rise = radiation_coefficient(params.effects.emissivity, REFERENCE_RISE_K,
+                                 true_ambient(params.thermal, params.effects))
+    return thermal_conductance(params.fiber, params.thermal) + rise * surface_area(params.fiber)
 
 
 def contradicted_by_measurement(effects, values, candidates):
