@@ -17,7 +17,8 @@ nothing; a single or a pair names exactly its effects (a power loss under a roug
 guessed description, and an effect whose size the description admits, as the diagnosis
 reads a joint fit (candidates.twin_shift within 2 spreads: a power loss within the
 stated delivered power, an ambient offset within the stated room and, without a
-thermometer, T_z), may also be absorbed: nothing named); an out-of-catalogue case is
+thermometer, T_z, a radiation within the stated heat loss), may also be absorbed:
+nothing named); an out-of-catalogue case is
 "unexplained" with nothing named. Singles are also split by an oracle
 (bench_diagnosis_real.effect_shows): does the truth with its effect switched off
 leave structure on the records by the verdict's own test? Where it does not, the
@@ -122,7 +123,8 @@ def admitted_by(hidden, truth, described, condition):
 
     joint.admitted_effects on the truth, as the diagnosis reads a joint fit: a power
     loss within 2 prior spreads of the stated delivered power, an ambient offset
-    within 2 of the room's stated uncertainty (and, without a thermometer, T_z's).
+    within 2 of the room's stated uncertainty (and, without a thermometer, T_z's), a
+    radiation whose linearised loss keeps the heat loss within 2 of its stated spread.
     Naming nothing is then right too.
     """
     return list(admitted_effects(hidden, truth, described, prior_spreads(described),

@@ -167,7 +167,9 @@ def admitted_effects(names, params, described, spreads, thermometer=True):
     spreads from the description ``described`` (candidates.twin_shift): a joint
     fit that needs no more says the muscle is as described, not that it has the
     effect (a 2.9 % loss where the delivered power is stated to 4.6 %: decisions G64;
-    an offset of -1.4 K where the room is stated to 1 K: G66). ``thermometer``: the
+    an offset of -1.4 K where the room is stated to 1 K: G66; a radiation whose
+    linearised loss keeps the heat loss within its stated spread, candidates.LOSS_TWINS:
+    G67). ``thermometer``: the
     records have a temperature channel (else an offset is also T_z moved).
     """
     shifts = {n: twin_shift(n, params, described, spreads, thermometer) for n in names}
