@@ -9,7 +9,8 @@ and against the file `tca_sim calibrate` writes from the same records (default f
 its posterior's spreads are the description's uncertainties then). Printed per muscle and start:
 the verdict, what is named or helps, the held-out RMSE beside the repeats' spread on
 the same samples, the CPU time, the findings (values moved beyond their stated spread,
-in spreads), and the verdict's sentence. Figures, not assertions.
+in spreads), the verdict's sentence and, for an unexplained verdict whose residual one
+moment carries, where (diagnosis/where.py). Figures, not assertions.
 """
 import one_blas_thread  # noqa: F401  (before NumPy: one BLAS thread per process)
 import argparse  # noqa: I100, I201
@@ -34,7 +35,7 @@ REPEATS = re.compile(r'records with repeats \(([\d.]+) mm\) is (below|above) the
 
 
 def _row(paths, config, model):
-    """Return (verdict, named, helpful, findings text, repeat text, CPU s) of one diagnosis."""
+    """Return (verdict, named, helpful, findings, repeats, CPU s, sentence, where notes)."""
     start = time.process_time()
     result = diagnose(paths, config, model=model, progress=False)
     cpu = time.process_time() - start
@@ -43,9 +44,10 @@ def _row(paths, config, model):
     repeat = next((m for m in map(REPEATS.search, result.notes) if m), None)
     repeat = (f'{repeat.group(1)} {"<" if repeat.group(2) == "below" else ">"} '
               f'{repeat.group(3)} mm' if repeat else '-')
+    where = [n.split(': one moment')[0] for n in result.notes if ' is concentrated: ' in n]
     return (result.verdict, '+'.join(result.effects) or '-',
             '+'.join(result.helpful) or '-', findings or '-', repeat, cpu,
-            result.explanation)
+            result.explanation, where)
 
 
 def _with_header(path, directory, key, value):
@@ -93,11 +95,11 @@ def main(argv=None):
                 print(f'{name:<14s} calibrate failed (exit status {status}); skipped')
                 continue
             for label, config in (('description', described), ('calibrated', calibrated)):
-                verdict, named, helpful, findings, repeat, cpu, why = _row(paths, config,
-                                                                           args.model)
+                verdict, named, helpful, findings, repeat, cpu, why, where = _row(
+                    paths, config, args.model)
                 print(f'{name:<14s} {label:<12s} {verdict:<12s} {named:<20s} {helpful:<20s} '
-                      f'{repeat:<20s} {cpu:6.1f}  {findings}\n    {why[:args.width]}',
-                      flush=True)
+                      f'{repeat:<20s} {cpu:6.1f}  {findings}\n    {why[:args.width]}'
+                      + ''.join(f'\n    where: {n}' for n in where), flush=True)
     return 0
 
 
