@@ -48,6 +48,8 @@ from rclpy.node import Node  # noqa: E402
 from rclpy.parameter import Parameter  # noqa: E402
 from rclpy.qos import QoSProfile  # noqa: E402
 
+from tca_ros.ros.service_call import answer_of  # noqa: E402
+
 
 class NodeProcess:
     """A node run in a subprocess, its output in a log file."""
@@ -163,21 +165,18 @@ class Probe(Node):
             self._exec.spin_once(timeout_sec=0.01)
         return predicate()
 
-    def call(self, client, request, timeout=10.0, resend_after=2.0):
+    def call(self, client, request, timeout=10.0):
         """Call a service and return its response (AssertionError after timeout s).
 
-        The request (every one the tests send is idempotent) goes again each
-        ``resend_after`` s, as score_ros does: on a loaded machine Fast DDS can drop the
-        response to a client its server has not discovered yet (ros2/rmw_fastrtps#842).
+        The request (every one the tests send is idempotent) goes again every 2 s
+        (service_call.answer_of), as ``tca_sim score`` sends it: on a loaded machine
+        Fast DDS can drop the response to a client its server has not discovered yet.
         """
         assert client.wait_for_service(timeout_sec=timeout), 'service not available'
-        deadline = time.monotonic() + timeout
-        while time.monotonic() < deadline:
-            future = client.call_async(request)
-            if self.spin_until(future.done, min(resend_after, deadline - time.monotonic())):
-                return future.result()
-            client.remove_pending_request(future)
-        raise AssertionError(f'no service response in {timeout:g} s')
+        response = answer_of(lambda: client.call_async(request), self.spin_until, timeout,
+                             client.remove_pending_request)
+        assert response is not None, f'no service response in {timeout:g} s'
+        return response
 
     def set_params(self, node_name, **values):
         """Set parameters of a remote node; return the SetParametersResult list."""

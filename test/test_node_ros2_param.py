@@ -6,8 +6,6 @@ writes ``parameter_value_to_python`` of every listed parameter as nested YAML, a
 ``load`` is ``AsyncParameterClient.load_parameter_file``. The tests call those same
 functions against a real node, so they check what a user typing the commands gets.
 """
-import time
-
 import pytest
 from rcl_interfaces.msg import Parameter as ParameterMsg, ParameterType
 from rcl_interfaces.srv import SetParameters
@@ -17,6 +15,7 @@ from rclpy.parameter_client import AsyncParameterClient
 import yaml
 
 from tca_ros.ros.node_params import READ_ONLY
+from tca_ros.ros.service_call import answer_of
 
 from test_node_harness import Probe, start_tca  # noqa: I100
 
@@ -31,15 +30,12 @@ def _ros2_param_set(probe, node, name, text):
     return probe.call(client, request).results[0]
 
 
-def _wait(probe, request, timeout=10.0, resend_after=2.0):
+def _wait(probe, request, timeout=10.0):
     """Return the response to ``request()`` (an AsyncParameterClient call), sent again
-    every resend_after s as Probe.call does (a dropped response, ros2/rmw_fastrtps#842)."""
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        future = request()
-        if probe.spin_until(future.done, min(resend_after, deadline - time.monotonic())):
-            return future.result()
-    raise AssertionError(f'no service response in {timeout:g} s')
+    every 2 s as Probe.call does (a dropped response, ros2/rmw_fastrtps#842)."""
+    response = answer_of(request, probe.spin_until, timeout)
+    assert response is not None, f'no service response in {timeout:g} s'
+    return response
 
 
 def _ros2_param_dump(probe, client):

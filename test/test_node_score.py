@@ -139,22 +139,27 @@ class _DroppingClient:
 
 def test_a_dropped_get_parameters_response_is_asked_again_until_the_timeout(monkeypatch):
     """A request left unanswered is sent again every RESEND_AFTER s (the earlier one is
-    forgotten) until one is answered; nothing answering within timeout gives None."""
-    from types import SimpleNamespace
+    forgotten) until one is answered; nothing answering within timeout gives None. The
+    scorer's get_parameters goes through service_call.answer_of."""
     from tca_ros.cli import score_ros
+    from tca_ros.ros import service_call
+    assert score_ros.answer_of is service_call.answer_of
     clock = [0.0]
-    monkeypatch.setattr(score_ros.time, 'monotonic', lambda: clock[0])
+    monkeypatch.setattr(service_call.time, 'monotonic', lambda: clock[0])
 
     def spin_until(predicate, wait):  # the fake executor: the wait passes, no callback
         if predicate():
             return True
         clock[0] += wait
         return False
-    scorer = SimpleNamespace(timeout=10.0, _spin_until=spin_until)
+
+    def ask(client):
+        return service_call.answer_of(lambda: client.call_async('request'), spin_until,
+                                      10.0, client.remove_pending_request)
     client = _DroppingClient(2, 'values')
-    assert score_ros.RosScorer._call(scorer, client, 'request') == 'values'
-    assert (client.sent, client.removed, clock[0]) == (3, 2, 2 * score_ros.RESEND_AFTER)
+    assert ask(client) == 'values'
+    assert (client.sent, client.removed, clock[0]) == (3, 2, 2 * service_call.RESEND_AFTER)
     clock[0] = 0.0
     silent = _DroppingClient(100, 'values')
-    assert score_ros.RosScorer._call(scorer, silent, 'request') is None
+    assert ask(silent) is None
     assert clock[0] == 10.0 and silent.sent == 5 == silent.removed

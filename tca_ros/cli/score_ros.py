@@ -26,15 +26,13 @@ from tca_ros.cli.common import InputError, stop_gracefully
 from tca_ros.model.params_schema import SCHEMA
 from tca_ros.model.tca_params import from_flat_dict
 from tca_ros.ros.node_task import parse_record, task_message, TASK_QOS
+from tca_ros.ros.service_call import answer_of
 from tca_ros.toolkit.scoring import scored_run, task_inputs
 
 NODE_SETTINGS = ('publish_clock', 'lockstep', 'publish_rate', 'max_temperature', 'max_power')
 PROGRESS_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.BEST_EFFORT)  # not acked
 STOP_GRACE = 5.0  # s between SIGINT and SIGKILL of a node the scorer started
 SPIN_STEP = 0.01  # s, executor wait per turn
-#: s: an idempotent request unanswered this long is sent again (Fast DDS drops the
-#: response to a client the server has not discovered yet, ros2/rmw_fastrtps#842)
-RESEND_AFTER = 2.0
 
 
 class RosScorer(Node):
@@ -74,22 +72,6 @@ class RosScorer(Node):
             self._executor.spin_once(timeout_sec=SPIN_STEP)
         return True
 
-    def _call(self, client, request):
-        """Return the response to an idempotent request, or None after ``timeout`` s.
-
-        The request is sent again every RESEND_AFTER s: on a loaded machine Fast DDS can
-        drop the response to a client its server has not discovered yet.
-        """
-        deadline = time.monotonic() + self.timeout
-        while True:
-            future = client.call_async(request)
-            wait = min(RESEND_AFTER, deadline - time.monotonic())
-            if self._spin_until(future.done, wait) and future.result() is not None:
-                return future.result()
-            client.remove_pending_request(future)
-            if time.monotonic() >= deadline:
-                return None
-
     def node_parameters(self, discovery=None):
         """Return {name: value} of the node's muscle and lockstep settings.
 
@@ -104,7 +86,9 @@ class RosScorer(Node):
             raise InputError(f'no tca node answers in {self._where or "/"} within '
                              f'{discovery:g} s (nothing reads {self._where}/task; start '
                              'one, or use --start-node)')
-        response = self._call(self._params_client, GetParameters.Request(names=names))
+        client = self._params_client
+        response = answer_of(lambda: client.call_async(GetParameters.Request(names=names)),
+                             self._spin_until, self.timeout, client.remove_pending_request)
         if response is None:
             raise InputError(f'{self.target}: no answer to get_parameters within '
                              f'{self.timeout:g} s')
