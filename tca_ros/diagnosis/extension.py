@@ -10,10 +10,12 @@ part shows only estimation error), the findings' effects tested as their cause
 from dataclasses import dataclass
 
 from tca_ros.calibration.candidates import contradicted_by_measurement, parameters_at_bounds
+from tca_ros.calibration.physical_priors import prior_spreads
 from tca_ros.diagnosis.family_rivals import decisive_despite_structure, family_rivals
 from tca_ros.diagnosis.findings import explain_findings, finding_effects, findings_rival, \
     found_text, unexplained_findings
-from tca_ros.diagnosis.joint import beats_nominal, described_note, joint_extension, joint_notes
+from tca_ros.diagnosis.joint import admitted_effects, beats_nominal, described_note, \
+    joint_extension, joint_notes
 from tca_ros.diagnosis.one_load import gain_took_up_softening, predictable_below_floor, \
     RIVAL as ONE_LOAD_RIVAL, softening_on_one_load
 from tca_ros.diagnosis.search import MIN_GAIN_PERCENT, search_effects
@@ -219,6 +221,12 @@ def second_opinions(nominal, calibrate_with, effects, values, extendeds, rounds,
             joint = taken.fit
             effects, values, extendeds, judgement = nominal.adopted(joint)
             rmse, stats, verdict, explanation = judgement
+    if verdict == 'explained' and joint is None and cal is not None:
+        # a member within what the description states is the muscle as described (G69)
+        effects, said = described_members(nominal, effects, values)
+        if said:
+            notes.extend(said)
+            rmse, stats, verdict, explanation = nominal.judged(effects, values, extendeds)
     if verdict == 'explained' and joint is None and len(effects) in (1, 2) and cal is not None:
         # effects of families the records may not tell apart: the rivals (one member
         # swapped for each of its rivals) calibrated jointly; one decisively better
@@ -234,3 +242,29 @@ def second_opinions(nominal, calibrate_with, effects, values, extendeds, rounds,
                 effects, values, extendeds, judgement = nominal.adopted(taken)
             rmse, stats, verdict, explanation = judgement
     return effects, values, extendeds, (rmse, stats, verdict, explanation), found
+
+
+def described_members(nominal, effects, values):
+    """Return (effects, notes): the search's ``effects`` less those the description admits.
+
+    ``values``: the extension's dotted values. A member whose size moves its twin no
+    more than SHIFT_Z prior spreads from the description (joint.admitted_effects: a
+    power loss within the stated delivered power, an ambient offset within the
+    stated room, a radiation within the stated heat loss) is the described muscle's
+    own slack, as in a joint fit (JointFit.claimed): kept in the model, not named.
+    Only beside a member that is named: a search whose every effect the description
+    admits keeps its names (decisions G69).
+    """
+    cal = nominal.cal
+    if cal is None or len(effects) < 2:
+        return effects, []
+    admitted = admitted_effects(effects, nominal.problems[0].parameters(values), cal.start,
+                                prior_spreads(cal.start),
+                                'temperature' in nominal.problem.channels)
+    if not admitted or len(admitted) == len(effects):
+        return effects, []
+    return [e for e in effects if e not in admitted], [
+        f'{" + ".join(admitted)} of the search\'s extension is within what the description '
+        'states (the delivered power, the room and, without a thermometer, T_z: '
+        'uncertainty.*): the muscle as described, not named beside '
+        f'{" + ".join(e for e in effects if e not in admitted)}']

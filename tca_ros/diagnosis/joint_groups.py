@@ -116,4 +116,8 @@ def pair_order(rounds, candidates, fits, extra=()):
                   if other in by_name and by_name[other].starts and other not in rivals]
     pairs = pairs[:MAX_PAIRS]
     kept = {frozenset(c.name for c in pair) for pair in pairs}
-    return pairs + [(by_name[a], by_name[b]) for a, b in found if frozenset((a, b)) not in kept]
+    for a, b in found:  # each pair once, in whichever order it came first
+        if frozenset((a, b)) not in kept:
+            kept.add(frozenset((a, b)))
+            pairs.append((by_name[a], by_name[b]))
+    return pairs
