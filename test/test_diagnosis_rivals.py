@@ -212,3 +212,54 @@ def test_a_single_that_needs_a_finding_gives_way_to_a_pair_that_leaves_none(monk
     assert joint.joint_extension(None, [], [], None, CANDIDATES, [], {})[0] is clean
     assert answers == [[pair]]  # the pairs were never calibrated
     assert joint.leaves_finding(single) and not joint.leaves_finding(clean)
+
+
+def test_a_rival_the_thermometer_refutes_is_not_taken_and_the_report_says_why(monkeypatch):
+    # fresh bench seed 9421, two loads, thermometer on: nonlinear convection hidden, its
+    # family rival ambient_offset calibrated jointly to 3.92 K (gain 101.4 against 66.6)
+    # where the thermometer at rest read the described room: refuted, not named (G69)
+    from tca_ros.calibration.candidates import build_candidates
+    from tca_ros.diagnosis.joint import joint_calibrations
+    from tca_ros.params.files import load_params
+    described = load_params('free_stroke', model='cst').with_values(
+        **{'uncertainty.ambient_temperature': 1.0})
+    candidates = build_candidates(described, 'cst', 0.2, 5e-3,
+                                  names=('ambient_offset', 'nonlinear_convection'),
+                                  initial_temperature=described.thermal.ambient_temperature)
+    fitted = {'effects.ambient_offset': 3.921, 'effects.convection_exponent': 0.16}
+
+    def calibrate_with(fit, start_values, like):
+        moved = described.with_values(**{n: fitted[n] for n in fit if n in fitted})
+        return SimpleNamespace(params=moved, report=None), None, ''
+
+    cal = SimpleNamespace(report=SimpleNamespace(estimates={}, values={}), start=described,
+                          params=described)
+    problem = SimpleNamespace(simulate_full=lambda values: values,
+                              parameters=lambda values: described,
+                              channels=['displacement', 'temperature'])
+    monkeypatch.setattr(joint, 'heldout_gain_over', lambda problems, nominals, sims, k:
+                        101.4 if 'effects.ambient_offset' in sims[0] else 66.6)
+    monkeypatch.setattr(joint, 'channel_stats', lambda *args: {})
+    monkeypatch.setattr(joint, 'training_misfit', lambda report, reference: 1.0)
+    fits = joint_calibrations(calibrate_with, [problem], [None], cal, candidates,
+                              [(c,) for c in candidates], gate=False)
+    offset, convection = (next(f for f in fits if f.name == n)
+                          for n in ('ambient_offset', 'nonlinear_convection'))
+    assert convection.pinned == [] and convection.explained
+    (dotted, value, what), = offset.pinned
+    assert (dotted, value) == ('effects.ambient_offset', 3.921)
+    assert what.startswith('the thermometer at rest')
+    # the family stage keeps the search's name and says why the better gain is not taken
+    monkeypatch.setattr(rivals_module, 'joint_calibrations', lambda *args, **kwargs: fits)
+    monkeypatch.setattr(rivals_module, 'lowers_heldout_rms', lambda problems, sims, rmse: True)
+    taken, notes = family_rivals(None, [problem], [None], cal, candidates,
+                                 'nonlinear_convection', {})
+    assert taken is None
+    assert notes == ['not taken, refuted by a measurement: ambient_offset '
+                     '(effects.ambient_offset = 3.921, against the thermometer at rest '
+                     f'({described.thermal.ambient_temperature:.4g} degC))']
+    # unrefuted, the same gains replace the search's name (the rule before G69)
+    offset.pinned = []
+    taken, _ = family_rivals(None, [problem], [None], cal, candidates,
+                             'nonlinear_convection', {})
+    assert taken is offset

@@ -47,12 +47,13 @@ def family_rivals(calibrate_with, problems, nominals, cal, candidates, found, no
                      key=lambda f: -f.criterion)
     near = unresolved_rivals(own, fits,
                              lambda f: lowers_heldout_rms(problems, f.sims, nominal_rmse))
+    refuted = refuted_notes(f for f in fits if f.name != found)
     lead = decisive_despite_structure(own, passing, near)
     if lead is not None:
         return lead, [f'{found} was named by the search; {lead.name} is named: '
-                      + lead.despite]
+                      + lead.despite] + refuted
     if not passing:
-        return None, unresolved_note(own, near) + rival_experiment_notes(own, near)
+        return None, refuted + unresolved_note(own, near) + rival_experiment_notes(own, near)
     gains = ', '.join(f'{f.name} (penalised held-out gain {f.criterion:.1f})'
                       for f in passing)
     if own is not None and passing[0].criterion > own.criterion + DECISIVE_DEVIANCE:
@@ -60,10 +61,11 @@ def family_rivals(calibrate_with, problems, nominals, cal, candidates, found, no
         return best, [f'{found} was named by the search; calibrated jointly with all the '
                       f'nominal parameters, {gains} against {own.criterion:.1f} for '
                       f'{found}: {best.name} is named, its gain larger by more than '
-                      f'{DECISIVE_DEVIANCE:g} (docs/diagnosis_method.md, "Family rivals")']
+                      f'{DECISIVE_DEVIANCE:g} (docs/diagnosis_method.md, "Family rivals")'
+                      ] + refuted
     against = f' against {own.criterion:.1f} for {found}' if own is not None else ''
     notes = [f'{found} is named by the search; also explained, calibrated jointly: '
-             f'{gains}{against}: these records tell them apart only by that gain']
+             f'{gains}{against}: these records tell them apart only by that gain'] + refuted
     if own is None:
         return None, notes
     return None, notes + unresolved_note(own, near) + rival_experiment_notes(own, passing + near)
@@ -98,3 +100,17 @@ def rival_text(fit, named):
             f'part better than {named.name}, which leaves no structure, by more than '
             f'{DECISIVE_DEVIANCE:g} (penalised held-out gains {fit.criterion:.1f} and '
             f'{named.criterion:.1f}: docs/diagnosis_method.md, "Decisive despite structure")')
+
+
+def refuted_notes(fits):
+    """Return a note on the JointFits of ``fits`` that a measurement refutes, or [].
+
+    Such a fit (an ambient offset the thermometer at rest does not read:
+    candidates.contradicted_by_measurement, kept in JointFit.pinned) is never taken,
+    however well it predicts; the note says why a rival the reader may expect is not.
+    """
+    said = [f'{f.name} ({n} = {v:.4g}, against {what})' for f in fits
+            for n, v, what in f.pinned if isinstance(what, str)]
+    if not said:
+        return []
+    return ['not taken, refuted by a measurement: ' + ', '.join(said)]

@@ -24,7 +24,8 @@ from dataclasses import dataclass
 import math
 from typing import NamedTuple
 
-from tca_ros.calibration.candidates import parameters_at_bounds, twin_shift
+from tca_ros.calibration.candidates import contradicted_by_measurement, parameters_at_bounds, \
+    twin_shift
 from tca_ros.calibration.physical_priors import prior_spreads, SHIFT_Z
 from tca_ros.diagnosis.joint_groups import joint_order, pair_order
 from tca_ros.diagnosis.rivals import DECISIVE_DEVIANCE, rival_experiment_notes, \
@@ -47,7 +48,9 @@ class JointFit:
     sims: list  # per record, the full dynamics (18) at the record's samples
     criterion: float  # penalised held-out gain over the calibrated nominal (-)
     explained: bool  # the verdict's test finds no structure left
-    pinned: list  # (name, value, bound) of its parameters at the end of their range
+    #: (name, value, bound) of its parameters at the end of their range, and (name,
+    #: value, what) of those a measurement refutes (candidates.contradicted_by_measurement)
+    pinned: list
     effects: tuple = ()  # the catalogue names, in the order found (default: (name,))
     calibration: object = None  # the joint Calibration (its priors and FitReport)
     #: (whole-record stats, criterion) when confirmed on the whole record (confirm_on_whole)
@@ -142,7 +145,11 @@ def joint_calibrations(calibrate_with, problems, nominals, cal, candidates, grou
         if not pays_beyond_its_members(names, criterion, singles):
             continue
         stats = channel_stats(problems, sims, [p.parameters(values) for p in problems])
-        pinned = parameters_at_bounds(list(names), values, candidates)
+        # a value at the end of its range, or one a measurement refutes (an ambient
+        # offset the thermometer at rest does not read), explains nothing (G61, G69)
+        pinned = parameters_at_bounds(list(names), values, candidates) + [
+            (n, v, what) for n, v, _, _, what in
+            contradicted_by_measurement(list(names), values, candidates)]
         admitted = admitted_effects(names, joint.params, cal.start, spreads,
                                     'temperature' in problems[0].channels)
         confirmed = None
