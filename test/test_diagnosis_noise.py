@@ -66,23 +66,6 @@ def test_a_missing_slow_thermal_mode_is_structure_despite_coloured_noise():
     assert test.predictable_rms == pytest.approx(np.std(missing), rel=0.3)
 
 
-@pytest.mark.parametrize('seed', range(4))
-def test_a_response_that_fades_over_the_record_is_structure(seed):
-    # a muscle whose stroke fades by 10 % from the first sample to the last (fatigue,
-    # outside the catalogue): no input-driven term of a time-invariant model predicts
-    # it; the response times the record's time does (G71), despite coloured noise.
-    # Without that term 3 of 20 such seeds were structured, with it 20 of 20
-    rng = np.random.default_rng(300 + seed)
-    power, predicted, rise = plant(rng)
-    # what a calibrated gain leaves of it: the mean fade is taken up, +-5 % remains
-    share = np.linspace(0.0, 1.0, N)
-    missing = -0.1 * (share - 0.5) * (predicted - predicted.mean())
-    residual = missing + ar1(rng, N, RATE, 20e-6, 2.0) + 3e-6 * rng.standard_normal(N)
-    terms = input_terms(predicted, rise, power, RATE, 4.0)
-    test = structure_test([(residual, terms, RATE)], swing=float(np.ptp(predicted)))
-    assert test.structured, test
-
-
 def test_records_are_pooled_each_with_its_own_offset_and_drift():
     rng = np.random.default_rng(9)
     segments = []

@@ -125,11 +125,9 @@ def _input_signals(predicted, rise, power, sample_rate, thermal_tau):
     predicted = np.asarray(predicted, dtype=float)
     centred = predicted - predicted.mean()
     rate = np.gradient(predicted) * sample_rate
-    # the response growing or fading over the record (a muscle that changes: G71)
-    ramp = np.linspace(-1.0, 1.0, predicted.size)
     return [centred, centred ** 2, rate, np.asarray(rise, dtype=float),
             first_order_lag(power, sample_rate, thermal_tau / 3.0),
-            first_order_lag(power, sample_rate, 3.0 * thermal_tau), centred * ramp]
+            first_order_lag(power, sample_rate, 3.0 * thermal_tau)]
 
 
 def _scaled_columns(cols):
