@@ -15,7 +15,7 @@ from tca_ros.diagnosis.family_rivals import decisive_despite_structure, family_r
 from tca_ros.diagnosis.findings import explain_findings, finding_effects, findings_rival, \
     found_text, unexplained_findings
 from tca_ros.diagnosis.joint import admitted_effects, beats_nominal, described_note, \
-    joint_extension, joint_notes
+    joint_extension, joint_notes, WITHIN_DESCRIPTION
 from tca_ros.diagnosis.one_load import gain_took_up_softening, predictable_below_floor, \
     RIVAL as ONE_LOAD_RIVAL, softening_on_one_load
 from tca_ros.diagnosis.search import MIN_GAIN_PERCENT, search_effects
@@ -264,7 +264,6 @@ def described_members(nominal, effects, values):
     if not admitted or len(admitted) == len(effects):
         return effects, []
     return [e for e in effects if e not in admitted], [
-        f'{" + ".join(admitted)} of the search\'s extension is within what the description '
-        'states (the delivered power, the room and, without a thermometer, T_z: '
-        'uncertainty.*): the muscle as described, not named beside '
+        f'{" + ".join(admitted)} of the search\'s extension is {WITHIN_DESCRIPTION}: the '
+        'muscle as described, not named beside '
         f'{" + ".join(e for e in effects if e not in admitted)}']

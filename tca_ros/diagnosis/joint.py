@@ -35,6 +35,9 @@ from tca_ros.diagnosis.verdict import channel_stats, heldout_gain_over, needs_ex
     pooled_heldout_rmse
 from tca_ros.model.tca_params import to_flat_dict
 
+#: what an admitted effect's size is (admitted_effects), as the notes say it
+WITHIN_DESCRIPTION = ('within what the description states (the delivered power, the room, '
+                      'the heat loss and, without a thermometer, T_z: uncertainty.*)')
 JOINT_NFEV = 10  # least-squares iterations of each pass of a joint calibration
 
 
@@ -364,9 +367,8 @@ def described_note(fit):
                       if name.startswith('effects.'))
     return (f'{fit.name} ({sizes}), calibrated jointly with all the nominal parameters, '
             'explains the records decisively better than any effect (penalised held-out '
-            f'gain {fit.criterion:.1f}), and its size is within what the description '
-            'states (the delivered power, the room and, without a thermometer, T_z: '
-            'uncertainty.*): the muscle is as described there, and no effect is named '
+            f'gain {fit.criterion:.1f}), and its size is {WITHIN_DESCRIPTION}: the muscle '
+            'is as described there, and no effect is named '
             '(docs/diagnosis_method.md, "Joint calibration")')
 
 
@@ -384,9 +386,8 @@ def joint_notes(joint, rivals, searched, near=()):
              f'{"explain" if pair else "explains"} it (docs/diagnosis_method.md, '
              f'"Joint calibration": {"pairs" if pair else "singles"})']
     if joint.admitted:
-        notes.append(f'{" + ".join(joint.admitted)} of that fit is within what the '
-                     'description states (the delivered power, the room and, without a '
-                     'thermometer, T_z: uncertainty.*): the muscle as described, not named')
+        notes.append(f'{" + ".join(joint.admitted)} of that fit is {WITHIN_DESCRIPTION}: the '
+                     'muscle as described, not named')
     if rivals:
         notes.append('also explained, calibrated jointly: ' + ', '.join(
             f'{f.name} (penalised held-out gain {f.criterion:.1f} against '
