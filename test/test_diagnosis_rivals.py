@@ -245,8 +245,9 @@ def test_a_rival_the_thermometer_refutes_is_not_taken_and_the_report_says_why(mo
                               [(c,) for c in candidates], gate=False)
     offset, convection = (next(f for f in fits if f.name == n)
                           for n in ('ambient_offset', 'nonlinear_convection'))
-    assert convection.pinned == [] and convection.explained
-    (dotted, value, what), = offset.pinned
+    assert convection.pinned == convection.refuted == [] and convection.explained
+    assert offset.pinned == [] and offset.barred
+    (dotted, value, what), = offset.refuted
     assert (dotted, value) == ('effects.ambient_offset', 3.921)
     assert what.startswith('the thermometer at rest')
     # the family stage keeps the search's name and says why the better gain is not taken
@@ -259,7 +260,7 @@ def test_a_rival_the_thermometer_refutes_is_not_taken_and_the_report_says_why(mo
                      '(effects.ambient_offset = 3.921, against the thermometer at rest '
                      f'({described.thermal.ambient_temperature:.4g} degC))']
     # unrefuted, the same gains replace the search's name (the rule before G69)
-    offset.pinned = []
+    offset.refuted = []
     taken, _ = family_rivals(None, [problem], [None], cal, candidates,
                              'nonlinear_convection', {})
     assert taken is offset

@@ -46,6 +46,7 @@ the full central-difference dynamics (18) of the same model, and those are the
 figures reported.
 """
 from dataclasses import dataclass, field
+import math
 
 import numpy as np
 
@@ -68,6 +69,9 @@ FORCE_SCALE_FLOOR = 1e-5  # N, likewise (a load cell's resolution, 1 mg)
 NOMINAL_LEVELS = 2  # a power column with at most this many distinct values is nominal
 BASE_NFEV = 40  # solver evaluations of a calibration by default
 PHYSICS_NFEV = 15  # more per added physics parameter (PHYSICS_FIT)
+#: the finding on the room the thermometer reads at rest (Calibration.room_reading), named
+#: as the description's uncertainty entry of the ambient
+ROOM = 'ambient_temperature'
 
 
 class CalibrationError(ValueError):
@@ -163,11 +167,40 @@ class Calibration:
         still plausible; an implausible one is reported as such) is a finding: the
         effects are those of physical_priors.stands_for. ``implausible``: the values
         past their physical limits too (what they stand for, for the diagnosis).
+        The room the thermometer reads at rest, beyond SHIFT_Z from the model's
+        (:meth:`room_reading`), is one too, named ROOM, standing for an ambient offset.
         """
-        from tca_ros.calibration.physical_priors import stands_for
+        from tca_ros.calibration.physical_priors import SHIFT_Z, stands_for
         tau_z = self.time_constant_z()
-        return [(r.name, r.z, stands_for(r.name, tau_z)) for r in self.plausibility()
-                if (r.shifted and not r.implausible) or (implausible and r.implausible)]
+        out = [(r.name, r.z, stands_for(r.name, tau_z)) for r in self.plausibility()
+               if (r.shifted and not r.implausible) or (implausible and r.implausible)]
+        room = self.room_reading()
+        if room is not None and abs(room[2]) > SHIFT_Z:
+            out.append((ROOM, room[2], ('ambient_offset',)))
+        return out
+
+    def room_reading(self):
+        """Return (read degC, model's room degC, z) of the thermometer at rest, or None.
+
+        A muscle at rest is at the room's temperature: the logged temperature
+        before the first power (warm_start.resting_temperature) measures it. z is
+        its difference from the room of the calibrated params (the described
+        ambient, plus an ambient offset a joint calibration fitted) over the
+        stated uncertainty of the ambient and the thermometer's accuracy
+        (candidates.THERMOMETER_TOLERANCE_K) together. Beyond SHIFT_Z it is a
+        finding on a measured value, not a calibrated one (:meth:`findings`,
+        decisions G73). None without a thermometer, or when a record begins warm.
+        """
+        from tca_ros.calibration.candidates import THERMOMETER_TOLERANCE_K
+        from tca_ros.calibration.physical_priors import prior_spreads
+        from tca_ros.calibration.warm_start import resting_temperature
+        from tca_ros.model.effects import true_ambient
+        read = resting_temperature(self.records, self.start.thermal.ambient_temperature)
+        if read is None:
+            return None
+        room = true_ambient(self.params.thermal, self.params.effects)
+        spread = math.hypot(prior_spreads(self.start)[ROOM], THERMOMETER_TOLERANCE_K)
+        return read, room, (read - room) / spread
 
     def time_constant_z(self):
         """Return the shift of tau = C / G (eq. 1) from the description's, in prior spreads.

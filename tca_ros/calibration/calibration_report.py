@@ -7,6 +7,8 @@ import os
 
 import numpy as np
 
+from tca_ros.calibration.calibration import ROOM
+from tca_ros.calibration.candidates import THERMOMETER_TOLERANCE_K
 from tca_ros.calibration.predictions import full_predictions
 from tca_ros.model.quasistatic_effects import equilibrium_bound
 from tca_ros.model.thermal import HeatBalance
@@ -114,6 +116,9 @@ def format_plausibility(cal):
     lines += format_experiments(next_experiments(cal))
     from tca_ros.calibration.physical_priors import finding_causes_of
     for name, z, effects in cal.findings():
+        if name == ROOM:
+            lines.append(room_finding_line(cal) + ' (`tca_sim diagnose` tests it)')
+            continue
         lines.append(f'finding: {name} moved z = {z:+.1f} prior spreads from the description '
                      '(beyond its stated uncertainty): the muscle differs there, or '
                      + finding_causes_of(cal, name, z, effects)
@@ -127,6 +132,16 @@ def format_plausibility(cal):
         lines.append('note: no temperature or resistance channel: temperatures are the '
                      "priors' (heat_loss, delivered_power_ratio), not measured")
     return lines
+
+
+def room_finding_line(cal):
+    """Return the line of the finding on the room (Calibration.room_reading): degC, z."""
+    read, room, z = cal.room_reading()
+    return (f'finding: the thermometer at rest reads {read:.4g} degC where the model has '
+            f'the room at {room:.4g} degC: z = {z:+.1f} over the stated uncertainty of the '
+            f'ambient and the {THERMOMETER_TOLERANCE_K:g} K of a thermometer together: the '
+            'room differs from the description, or the thermometer is off; an '
+            'ambient_offset stands for it')
 
 
 MEASURED_U, GUESSED_U = 0.1, 1.0  # relative uncertainties (uncertainty.*) of the kinds

@@ -39,3 +39,25 @@ def starts_warm(record, ambient):
     sigma = noise_sigma(record.temperature) / np.sqrt(quarter)
     return (first > ambient and first - last > WARM_START_MIN_FALL_K
             and first - last > WARM_START_SIGMAS * np.sqrt(2.0) * sigma)
+
+
+def resting_temperature(records, ambient):
+    """Return the temperature (degC) the thermometer reads at rest before any power, or None.
+
+    A muscle at rest is at the room's temperature, so the logged temperature
+    before the first power (above POWER_OFF_SHARE of its peak; the first sample
+    when the power is on from the start) measures the room. The median of those
+    samples of every record, pooled. None when a record logs no temperature or
+    begins warm (:func:`starts_warm` against the described ``ambient``, degC):
+    its reading is then the heat it still holds.
+    """
+    rest = []
+    for record in records:
+        if record.temperature is None or starts_warm(record, ambient):
+            return None
+        on = np.flatnonzero(record.power > POWER_OFF_SHARE
+                            * max(float(np.max(record.power)), 0.0))
+        rest.append(record.temperature[:max(int(on[0]) if on.size else record.time.size, 1)])
+    if not rest:
+        return None
+    return float(np.median(np.concatenate(rest)))

@@ -41,7 +41,7 @@ def family_rivals(calibrate_with, problems, nominals, cal, candidates, found, no
                               [tuple(by_name[n] for n in group) for group in [named] + swaps])
     found = ' + '.join(named)
     own = next((f for f in fits if f.name == found), None)
-    passing = sorted((f for f in fits if f.name != found and f.explained and not f.pinned
+    passing = sorted((f for f in fits if f.name != found and f.explained and not f.barred
                       and f.criterion > 0.0
                       and lowers_heldout_rms(problems, f.sims, nominal_rmse)),
                      key=lambda f: -f.criterion)
@@ -106,11 +106,11 @@ def refuted_notes(fits):
     """Return a note on the JointFits of ``fits`` that a measurement refutes, or [].
 
     Such a fit (an ambient offset the thermometer at rest does not read:
-    candidates.contradicted_by_measurement, kept in JointFit.pinned) is never taken,
+    candidates.contradicted_by_measurement, kept in JointFit.refuted) is never taken,
     however well it predicts; the note says why a rival the reader may expect is not.
     """
     said = [f'{f.name} ({n} = {v:.4g}, against {what})' for f in fits
-            for n, v, what in f.pinned if isinstance(what, str)]
+            for n, v, what in f.refuted]
     if not said:
         return []
     return ['not taken, refuted by a measurement: ' + ', '.join(said)]

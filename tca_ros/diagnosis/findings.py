@@ -44,6 +44,7 @@ model fits it only with values the description rules out (docs/diagnosis_method.
 from dataclasses import dataclass
 import math
 
+from tca_ros.calibration.calibration import ROOM
 from tca_ros.calibration.physical_priors import SHIFT_Z
 from tca_ros.diagnosis.joint import changed_values, DECISIVE_DEVIANCE, joint_calibrations, \
     lowers_heldout_rms
@@ -65,11 +66,19 @@ class FindingTest:
     #: penalised held-out gain over the nominal model the description admits, when
     #: found with structure left (found_despite_structure), else None
     over_described: float = None
+    holds: bool = False  # condition 3: held-out deviance D >= -k ln n
+    paid: bool = False  # condition 2 (a measured finding's: the data cost no more)
+    n_heldout: int = 0  # the held-out samples n of D
 
     @property
     def name(self):
         """Return the effect's name."""
         return self.fit.name
+
+    @property
+    def measured(self):
+        """Return True when its findings are all on measured values (the room, G73)."""
+        return bool(self.names) and all(n == ROOM for n in self.names)
 
 
 def finding_effects(cal):
@@ -91,8 +100,12 @@ def _returned(joint, names):
     """Return True when calibrated ``names`` are within SHIFT_Z spreads and plausible.
 
     ``joint``: the Calibration of an effect and the nominal parameters together.
+    The room the thermometer reads at rest returns when the joint calibration's
+    room (an ambient offset fitted) is within SHIFT_Z of it (Calibration.room_reading).
     """
     rows = {r.name: r for r in joint.plausibility()}
+    if ROOM in names and ROOM in [n for n, _, _ in joint.findings()]:
+        return False
     return all(abs(rows[n].z) <= SHIFT_Z and not rows[n].implausible
                for n in names if n in rows)
 
@@ -113,10 +126,14 @@ def weigh_finding_effect(fit, cal, problems, nominals):
             - joint.report.data_cost(ref) - joint.report.prior_cost - penalty)
     deviance, n = heldout_deviance(problems, nominals, fit.sims)
     holds = deviance >= -fit.n_params * math.log(max(n, 2))
-    passes = bool(names and returned and fall > 0.0 and holds and fit.explained
-                  and not fit.pinned)
+    # a measured value is its own evidence: the fit need only cost the data nothing
+    measured = bool(names) and all(name == ROOM for name in names)
+    paid = fall + penalty >= 0.0 if measured else fall > 0.0
+    passes = bool(names and returned and paid and holds and fit.explained
+                  and not fit.barred)
     return FindingTest(fit=fit, fall=float(fall), deviance=float(deviance),
-                       returned=returned, passes=passes, names=tuple(names))
+                       returned=returned, passes=passes, names=tuple(names), holds=holds,
+                       paid=paid, n_heldout=n)
 
 
 def finding_tests(calibrate_with, problems, nominals, cal, candidates):
@@ -153,7 +170,8 @@ def explain_findings(calibrate_with, problems, nominals, cal, candidates):
         tried = ', '.join(f'{t.name} (objective fall {t.fall:+.1f}, held-out deviance '
                           f'{t.deviance:+.1f}{"" if t.returned else ", values not returned"})'
                           for t in tests) or 'none could be calibrated'
-        found = found_despite_structure(calibrate_with, problems, cal, tests)
+        found = (found_despite_structure(calibrate_with, problems, cal, tests)
+                 or found_on_measurement(tests))
         if found is None:
             return None, [f'findings {shifted}: the effects they can stand for, calibrated '
                           f'jointly, do not explain them: {tried}']
@@ -187,7 +205,7 @@ def found_despite_structure(calibrate_with, problems, cal, tests):
     search's rule with the penalty (k + m) ln n (m the values held). Its
     ``over_described`` is set to that penalised gain.
     """
-    ok = sorted((t for t in tests if t.returned and t.names and not t.fit.pinned),
+    ok = sorted((t for t in tests if t.returned and t.names and not t.fit.barred),
                 key=lambda t: -t.fall)
     if not ok or not ok[0].fall > DECISIVE_DEVIANCE:
         return None
@@ -204,6 +222,28 @@ def found_despite_structure(calibrate_with, problems, cal, tests):
     if not (gain > 0.0 and lowers_heldout_rms(problems, best.fit.sims, reference)):
         return None
     best.over_described = float(gain)
+    return best
+
+
+def found_on_measurement(tests):
+    """Return the FindingTest of a measured finding's effect, found with structure left.
+
+    The room the thermometer reads at rest is a measurement, not a value the
+    calibration moved (Calibration.room_reading): an ambient offset that brings
+    the model's room back to it (returned, not refuted by the reading), costs
+    the data nothing and predicts the held-out part no worse than the nominal
+    model beyond its penalty (``holds``) is named, with the structure left
+    beside it (decisions G73). The nominal model the description admits is the
+    calibrated one (no calibrated value is held), so ``over_described`` is the
+    held-out deviance less k ln n. None when no such test.
+    """
+    ok = [t for t in tests if t.measured and t.returned and t.holds and t.paid
+          and not t.fit.barred]
+    if not ok:
+        return None
+    best = max(ok, key=lambda t: t.fall)
+    best.over_described = float(best.deviance
+                                - best.fit.n_params * math.log(max(best.n_heldout, 2)))
     return best
 
 
@@ -229,6 +269,11 @@ def described_nominal(calibrate_with, problems, cal, held):
 
 def found_text(test):
     """Return the clause giving a FindingTest's evidence when found with structure left."""
+    if test.measured:
+        return ('the thermometer at rest reads a room the description does not state; '
+                'calibrated jointly with the nominal parameters it brings the room of the '
+                'model back to that reading and predicts the held-out part as well as the '
+                f'nominal model within its penalty (held-out deviance {test.deviance:+.1f})')
     return (f'calibrated jointly with the nominal parameters it brings '
             f'{", ".join(test.names)} back within {SHIFT_Z:g} prior spreads, lowers the '
             f"calibration's objective (data + priors) by {test.fall:.1f} beyond its penalty, "

@@ -20,7 +20,7 @@ a cleaner explanation than the search's, or none (docs/diagnosis_method.md,
 When none is taken, the single fits that helped are calibrated again each with a
 partner (pair_order), under the same rules (the same section, "Pairs").
 """
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 import math
 from typing import NamedTuple
 
@@ -51,8 +51,7 @@ class JointFit:
     sims: list  # per record, the full dynamics (18) at the record's samples
     criterion: float  # penalised held-out gain over the calibrated nominal (-)
     explained: bool  # the verdict's test finds no structure left
-    #: (name, value, bound) of its parameters at the end of their range, and (name,
-    #: value, what) of those a measurement refutes (candidates.contradicted_by_measurement)
+    #: (name, value, bound) of its parameters at the end of their range
     pinned: list
     effects: tuple = ()  # the catalogue names, in the order found (default: (name,))
     calibration: object = None  # the joint Calibration (its priors and FitReport)
@@ -62,9 +61,17 @@ class JointFit:
     admitted: tuple = ()
     #: why it is named though it leaves structure (decisive_despite_structure), or None
     despite: str = None
+    #: (name, value, what) of its values a measurement refutes
+    #: (candidates.contradicted_by_measurement)
+    refuted: list = field(default_factory=list)
 
     def __post_init__(self):  # noqa: D105 -- a single effect names itself
         self.effects = tuple(self.effects) or (self.name,)
+
+    @property
+    def barred(self):
+        """Return True when a value is at a bound or refuted: the fit is taken nowhere."""
+        return bool(self.pinned or self.refuted)
 
     @property
     def claimed(self):
@@ -150,20 +157,20 @@ def joint_calibrations(calibrate_with, problems, nominals, cal, candidates, grou
         stats = channel_stats(problems, sims, [p.parameters(values) for p in problems])
         # a value at the end of its range, or one a measurement refutes (an ambient
         # offset the thermometer at rest does not read), explains nothing (G61, G69)
-        pinned = parameters_at_bounds(list(names), values, candidates) + [
-            (n, v, what) for n, v, _, _, what in
-            contradicted_by_measurement(list(names), values, candidates)]
+        pinned = parameters_at_bounds(list(names), values, candidates)
+        refuted = [(n, v, what) for n, v, _, _, what in
+                   contradicted_by_measurement(list(names), values, candidates)]
         admitted = admitted_effects(names, joint.params, cal.start, spreads,
                                     'temperature' in problems[0].channels)
         confirmed = None
         whole = getattr(calibrate_with, 'whole', None)
         if (needs_explaining(stats) and criterion > DECISIVE_DEVIANCE and whole is not None
-                and not pinned):  # a fit at a bound is taken nowhere
+                and not pinned and not refuted):  # a barred fit is taken nowhere
             confirmed = confirm_on_whole(whole, problems, cal, fitted + own, joint)
         out.append(JointFit(
             name=' + '.join(names), values=values, n_params=len(own), sims=sims,
             criterion=criterion, explained=not needs_explaining(stats) or bool(confirmed),
-            pinned=pinned, effects=names, calibration=joint,
+            pinned=pinned, refuted=refuted, effects=names, calibration=joint,
             confirmed=(confirmed, criterion) if confirmed else None, admitted=admitted))
     return out
 
@@ -239,7 +246,7 @@ def best_joint(fits, problems, nominals, nominal_rmse):
     first, so the report can say the records do not tell them apart.
     """
     # f.criterion is heldout_gain_over of f.sims: beats_nominal without computing it again
-    ok = [f for f in fits if f.explained and not f.pinned and f.claimed
+    ok = [f for f in fits if f.explained and not f.barred and f.claimed
           and f.criterion > 0.0
           and lowers_heldout_rms(problems, f.sims, nominal_rmse)]
     ok.sort(key=lambda f: f.criterion, reverse=True)
@@ -308,7 +315,7 @@ def described_lead(fits, taken, lowers_rms):
     named (a 7.1 K offset where T_z is stated to 20 K, gain 274, against a 1.1 mN
     friction at 17.3 on a two-load sensor nonlinearity: decisions G66).
     """
-    ok = [f for f in fits if set(f.admitted) == set(f.effects) and f.explained and not f.pinned
+    ok = [f for f in fits if set(f.admitted) == set(f.effects) and f.explained and not f.barred
           and f.criterion > 0.0 and lowers_rms(f)]
     if not ok:
         return None

@@ -11,14 +11,13 @@ import numpy as np
 
 from tca_ros.calibration.candidates import build_candidates, recalibration_spaces
 from tca_ros.calibration.physical_priors import prior_spreads
-from tca_ros.calibration.warm_start import starts_warm
+from tca_ros.calibration.warm_start import resting_temperature
 from tca_ros.diagnosis.fitting import FitProblem
 from tca_ros.diagnosis.holdout import DEFAULT_VALIDATION
 from tca_ros.records.data import DataError, read_record
 from tca_ros.records.record_ops import decimated
 
 PEAK_PERCENTILE = 99.5  # % of measured contraction taken as its peak (noise-robust)
-INITIAL_WINDOW_S = 1.0  # s at the start of a record taken as ambient equilibrium
 CALIBRATION_RATE_HZ = 10.0  # the calibrate-first step fits block means at about this rate
 WARM_START_NOTE_K = 1.0  # K: a fitted initial rise from here on is said in the notes
 
@@ -119,14 +118,8 @@ def record_nominal(params, record):
 
 def candidates_of(records, params, model, problems, nominals):
     """Return the catalogue candidates with data-driven starts from the records."""
-    initial = None
-    temps = [r.temperature for r in records if r.temperature is not None]
-    ambient = params.thermal.ambient_temperature
-    # a thermometer at rest reads the ambient; a record that starts warm does not
-    if temps and len(temps) == len(records) and not any(starts_warm(r, ambient)
-                                                        for r in records):
-        initial = float(np.median(np.concatenate([
-            r.temperature[r.time <= r.time[0] + INITIAL_WINDOW_S] for r in records])))
+    # a thermometer at rest reads the room (None: no thermometer, or a warm start)
+    initial = resting_temperature(records, params.thermal.ambient_temperature)
     peaks = [float(np.percentile(r.displacement[p.full_train_mask], PEAK_PERCENTILE))
              for r, p in zip(records, problems)]
     model_peaks = [float(n.displacement[p.full_train_mask].max())

@@ -97,7 +97,7 @@ def softening_on_one_load(calibrate_with, problems, nominals, cal, candidates):
     gain = cal.report.values.get('actuation_gain')
     moved, down = actuation_gain_z(cal), gain_took_up_softening(cal)
     named = (fit.criterion > DECISIVE_DEVIANCE and fall > 0.0 and fit.explained
-             and not fit.pinned and lowers_heldout_rms(problems, fit.sims, before) and down)
+             and not fit.barred and lowers_heldout_rms(problems, fit.sims, before) and down)
     if gain is None or moved is None:
         absorbed = 'the calibrated nominal values may take up a softening on one load'
     elif down:

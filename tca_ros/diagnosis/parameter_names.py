@@ -20,6 +20,8 @@ stand for (issue 25: what calibration absorbs is a finding).
 """
 import math
 
+from tca_ros.calibration.calibration import ROOM
+from tca_ros.calibration.calibration_report import room_finding_line
 from tca_ros.calibration.physical_priors import finding_causes_of
 from tca_ros.model.thermal import fiber_mass, heat_capacity, thermal_conductance
 
@@ -94,6 +96,9 @@ def plausibility_lines(cal):
                      f'{row.prior:.4g}, z {row.z:+.1f}{ratio}){flag}')
     lines += _derived_lines(cal)
     for name, z, effects in cal.findings():
+        if name == ROOM:
+            lines.append(room_finding_line(cal))
+            continue
         row = next(r for r in rows if r.name == name)
         why = (finding_causes_of(cal, name, z, effects) if effects
                else 'a cause outside the catalogue')

@@ -58,7 +58,7 @@ def unresolved_rivals(named, fits, lowers_rms):
     if named is None:
         return []
     near = [f for f in fits if swapped_rival(named.effects, f.effects)
-            and not f.explained and not f.pinned and f.criterion > 0.0
+            and not f.explained and not f.barred and f.criterion > 0.0
             and f.criterion >= named.criterion - DECISIVE_DEVIANCE and lowers_rms(f)]
     return sorted(near, key=lambda f: -f.criterion)
 
