@@ -507,6 +507,31 @@ def test_what_the_description_admits_and_explains_best_names_nothing():
     assert described_lead([offset, friction], friction, lambda f: False) is None
 
 
+def test_the_muscle_as_described_says_the_values_its_fit_still_moves():
+    # joint.described_note: a fit the description admits may still move other values
+    # beyond their stated spreads (seed 9435 at two loads: a 2.92 K offset left three
+    # values 6-7 spreads out); the note says so instead of calling it all the description
+    from tca_ros.diagnosis.joint import described_note, JointFit
+
+    class Moved:
+        def __init__(self, findings):
+            self._findings = findings
+
+        def findings(self):
+            return self._findings
+
+    def note(findings):
+        return described_note(JointFit(
+            name='ambient_offset', values={'effects.ambient_offset': 2.92}, n_params=1,
+            sims=[], criterion=138.3, explained=True, pinned=[], admitted=('ambient_offset',),
+            calibration=Moved(findings)))
+    clean = note([])
+    assert 'ambient_offset = 2.92' in clean and 'still moves' not in clean
+    moved = note([('heat_loss', 7.1, ('radiation',)), ('actuation_gain', -6.2, ())])
+    assert 'still moves heat_loss +7.1 prior spreads, actuation_gain -6.2 prior spreads' \
+        in moved
+
+
 def test_a_pair_with_a_member_the_description_admits_names_the_other(monkeypatch):
     # joint.best_joint and JointFit.claimed: seed 9135 at two loads (a dead time, no
     # thermometer) explained by a dead time and an ambient offset within the stated room

@@ -372,10 +372,14 @@ def described_note(fit):
     """Return the note on a fit the description admits that explained the records best."""
     sizes = ', '.join(f'{name.split(".")[-1]} = {value:.3g}' for name, value in fit.values.items()
                       if name.startswith('effects.'))
+    moved = fit.calibration.findings() if fit.calibration is not None else []
+    beyond = ('; its calibration still moves ' + ', '.join(
+        f'{name} {z:+.1f} prior spreads' for name, z, _ in moved)
+        + ' beyond the description, which no effect named here explains' if moved else '')
     return (f'{fit.name} ({sizes}), calibrated jointly with all the nominal parameters, '
             'explains the records decisively better than any effect (penalised held-out '
             f'gain {fit.criterion:.1f}), and its size is {WITHIN_DESCRIPTION}: the muscle '
-            'is as described there, and no effect is named '
+            f'is as described there, and no effect is named{beyond} '
             '(docs/diagnosis_method.md, "Joint calibration")')
 
 
