@@ -17,9 +17,9 @@ nothing; a single or a pair names exactly its effects (a power loss under a roug
 guessed description, and an effect whose size the description admits, as the diagnosis
 reads a joint fit (candidates.twin_shift within 2 spreads: a power loss within the
 stated delivered power, an ambient offset within the stated room and, without a
-thermometer, T_z, a radiation within the stated heat loss), may also be absorbed:
-nothing named); an out-of-catalogue case is
-"unexplained" with nothing named. Singles are also split by an oracle
+thermometer, T_z, a radiation or a convection exponent within the stated heat loss),
+may also be absorbed: nothing named); an out-of-catalogue case is "unexplained" with
+nothing named. Singles are also split by an oracle
 (bench_diagnosis_real.effect_shows): does the truth with its effect switched off
 leave structure on the records by the verdict's own test? Where it does not, the
 effect left no trace the test sees (right there: nothing named, or the effect itself).

@@ -608,6 +608,36 @@ def test_radiation_is_admitted_as_the_stated_heat_loss_it_adds_to():
                       described, spreads) == pytest.approx(0.0, abs=1e-9)
 
 
+def test_a_convection_exponent_is_admitted_while_the_loss_stays_within_its_stated_spread():
+    # candidates.twin_shift: nonlinear convection scales h by (dT / dT_ref)^n, so the
+    # loss leaves the stated one away from dT_ref; its shift is the largest over half and
+    # twice the quoted rise (candidates.LOSS_RISES), ln(2) n for n > 0 (decisions G74).
+    # Seed 9435: a 23.5 % power loss on a rod plant was named with an exponent of 0.034
+    # beside it, 0.81 spreads of a heat loss stated to 2.9 %
+    import math
+    from tca_ros.calibration.candidates import heat_loss_at, twin_shift
+    from tca_ros.calibration.physical_priors import prior_spreads
+    from tca_ros.model.thermal import thermal_conductance
+    from tca_ros.params.files import load_params
+    described = load_params('free_stroke').with_values(**{'uncertainty.heat_loss': 0.029})
+    spreads, g = prior_spreads(described), thermal_conductance(described.fiber,
+                                                               described.thermal)
+    assert heat_loss_at(described, 17.0) == pytest.approx(g)  # linear: every rise alike
+    for n, admitted in ((0.034, True), (0.15, False), (0.09, False)):
+        bent = described.with_values(**{'effects.convection_exponent': n})
+        assert heat_loss_at(bent, 100.0) == pytest.approx(g * 2.0 ** n)
+        shift = twin_shift('nonlinear_convection', bent, described, spreads)
+        assert shift == pytest.approx(abs(n) * math.log(2.0) / math.log1p(0.029))
+        assert (shift <= 2.0) == admitted, (n, shift)
+    # with h 2 % above the stated one, each rise is read against the stated loss
+    lower = described.with_values(**{'thermal.convection_coefficient':
+                                     described.thermal.convection_coefficient * 1.02})
+    bent = lower.with_values(**{'effects.convection_exponent': 0.034})
+    assert twin_shift('nonlinear_convection', bent, described, spreads) == pytest.approx(
+        max(abs(math.log(1.02 * 2.0 ** (k * 0.034))) for k in (-1, 0, 1))
+        / math.log1p(0.029))
+
+
 def test_a_partner_beside_the_description_s_own_slack_claims_nothing():
     # joint.stands_alone: a pair with an admitted member names the other only when that
     # one helped alone (a lead). Seed 9059 at two loads: a 0.031 s sensor lag, paired with

@@ -110,11 +110,16 @@ ABSORBED = {'power_loss': 'thermal.delivered_power_ratio'}
 #: uncertainty entry (in the value's unit) stating how well the description knows it:
 #: an ambient offset is the room at T_inf + offset where the description says T_inf
 STATED_OFFSETS = {'ambient_offset': ('effects.ambient_offset', 'ambient_temperature')}
-#: Effects that add to the heat loss h c_s A_0 the description states (the uncertainty
+#: Effects that change the heat loss h c_s A_0 the description states (the uncertainty
 #: entry): radiation of emissivity eps is, linearised at the rise a still-air loss is
-#: quoted at (heat_transfer.REFERENCE_RISE_K), 4 eps sigma T_m^3 A_0 more of it; the
-#: still-air reference of the heat loss counts radiation in (physical_priors)
-LOSS_TWINS = {'radiation': 'heat_loss'}
+#: quoted at (heat_transfer.REFERENCE_RISE_K), 4 eps sigma T_m^3 A_0 more of it (the
+#: still-air reference of the heat loss counts radiation in, physical_priors); nonlinear
+#: convection of exponent n scales h by (dT / dT_ref)^n, which bends the loss away from
+#: the stated one at rises other than dT_ref (heat_loss_at)
+LOSS_TWINS = {'radiation': 'heat_loss', 'nonlinear_convection': 'heat_loss'}
+#: K, the rises over which a stated heat loss is read: half and twice the rise a still-air
+#: loss is quoted at, and that rise (decisions G74)
+LOSS_RISES = (0.5 * REFERENCE_RISE_K, REFERENCE_RISE_K, 2.0 * REFERENCE_RISE_K)
 #: the uncertainty entry (K) of T_z, which a stroke without a temperature channel cannot
 #: tell from the ambient (twin_shift)
 CURVATURE_ENTRY = 'expansion_zero_temperature'
@@ -286,15 +291,17 @@ def twin_shift(name, params, described, spreads, thermometer=True):
     only through the stroke, whose expansion rate 2 c2 (T - T_z) of eq. (2) a room
     warmer by o moves as T_z lower by o would: the offset is then admitted within
     the spread of T_inf - T_z, sqrt(u_ambient^2 + u_Tz^2) (decisions G66). None for
-    an effect without a twin or a twin without a stated spread. Radiation (LOSS_TWINS)
-    is the stated heat loss with its linearised conductance added (loss_with_radiation).
+    an effect without a twin or a twin without a stated spread. Radiation and nonlinear
+    convection (LOSS_TWINS) move the stated heat loss: their shift is the largest
+    |ln(loss / stated loss)| over LOSS_RISES (:func:`heat_loss_at`).
     """
     if name in LOSS_TWINS:
         spread = (spreads or {}).get(LOSS_TWINS[name])
         if not spread or described is None:
             return None
         stated = thermal_conductance(described.fiber, described.thermal)
-        return abs(math.log(loss_with_radiation(params) / stated)) / spread
+        return max(abs(math.log(heat_loss_at(params, rise) / stated))
+                   for rise in LOSS_RISES) / spread
     if name in STATED_OFFSETS:
         dotted, entry = STATED_OFFSETS[name]
         spreads = spreads or {}
@@ -320,6 +327,18 @@ def loss_with_radiation(params):
     rise = radiation_coefficient(params.effects.emissivity, REFERENCE_RISE_K,
                                  true_ambient(params.thermal, params.effects))
     return thermal_conductance(params.fiber, params.thermal) + rise * surface_area(params.fiber)
+
+
+def heat_loss_at(params, rise):
+    """Return eq. (1)'s loss conductance (W/K) at a ``rise`` (K) above the true ambient.
+
+    h c_s A_0 (rise / dT_ref)^n (nonlinear convection's exponent n, 0 without it)
+    plus radiation linearised as in :func:`loss_with_radiation`.
+    """
+    e = params.effects
+    scale = (rise / e.convection_reference_dt) ** e.convection_exponent
+    return loss_with_radiation(params) + (scale - 1.0) * thermal_conductance(params.fiber,
+                                                                             params.thermal)
 
 
 def contradicted_by_measurement(effects, values, candidates):

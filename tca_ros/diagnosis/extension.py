@@ -250,8 +250,9 @@ def described_members(nominal, effects, values):
     ``values``: the extension's dotted values. A member whose size moves its twin no
     more than SHIFT_Z prior spreads from the description (joint.admitted_effects: a
     power loss within the stated delivered power, an ambient offset within the
-    stated room, a radiation within the stated heat loss) is the described muscle's
-    own slack, as in a joint fit (JointFit.claimed): kept in the model, not named.
+    stated room, a radiation or a convection exponent within the stated heat loss)
+    is the described muscle's own slack, as in a joint fit (JointFit.claimed): kept
+    in the model, not named.
     Only beside a member that is named: a search whose every effect the description
     admits keeps its names (decisions G69).
     """
