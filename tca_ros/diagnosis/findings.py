@@ -78,7 +78,12 @@ class FindingTest:
     @property
     def measured(self):
         """Return True when its findings are all on measured values (the room, G73)."""
-        return bool(self.names) and all(n == ROOM for n in self.names)
+        return on_measurement(self.names)
+
+
+def on_measurement(names):
+    """Return True when the finding ``names`` are all measured, not calibrated (ROOM)."""
+    return bool(names) and all(n == ROOM for n in names)
 
 
 def finding_effects(cal):
@@ -127,8 +132,7 @@ def weigh_finding_effect(fit, cal, problems, nominals):
     deviance, n = heldout_deviance(problems, nominals, fit.sims)
     holds = deviance >= -fit.n_params * math.log(max(n, 2))
     # a measured value is its own evidence: the fit need only cost the data nothing
-    measured = bool(names) and all(name == ROOM for name in names)
-    paid = fall + penalty >= 0.0 if measured else fall > 0.0
+    paid = fall + penalty >= 0.0 if on_measurement(names) else fall > 0.0
     passes = bool(names and returned and paid and holds and fit.explained
                   and not fit.barred)
     return FindingTest(fit=fit, fall=float(fall), deviance=float(deviance),
