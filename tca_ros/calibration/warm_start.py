@@ -28,9 +28,7 @@ def starts_warm(record, ambient):
     from tca_ros.calibration.residuals import noise_sigma
     if record.temperature is None:
         return False
-    # a logged power reads noise at rest: off is below POWER_OFF_SHARE of its peak
-    on = np.flatnonzero(record.power > POWER_OFF_SHARE * max(float(np.max(record.power)), 0.0))
-    end = int(on[0]) if on.size else record.time.size
+    end = first_power(record)
     if end < WARM_START_SAMPLES or record.time[end - 1] - record.time[0] < WARM_START_WINDOW_S:
         return False
     rest = record.temperature[:end]
@@ -39,6 +37,15 @@ def starts_warm(record, ambient):
     sigma = noise_sigma(record.temperature) / np.sqrt(quarter)
     return (first > ambient and first - last > WARM_START_MIN_FALL_K
             and first - last > WARM_START_SIGMAS * np.sqrt(2.0) * sigma)
+
+
+def first_power(record):
+    """Return the index of a record's first sample with the power on (its length if none).
+
+    A logged power reads noise at rest: on is above POWER_OFF_SHARE of its peak.
+    """
+    on = np.flatnonzero(record.power > POWER_OFF_SHARE * max(float(np.max(record.power)), 0.0))
+    return int(on[0]) if on.size else record.time.size
 
 
 def resting_temperature(records, ambient):
@@ -55,9 +62,7 @@ def resting_temperature(records, ambient):
     for record in records:
         if record.temperature is None or starts_warm(record, ambient):
             return None
-        on = np.flatnonzero(record.power > POWER_OFF_SHARE
-                            * max(float(np.max(record.power)), 0.0))
-        rest.append(record.temperature[:max(int(on[0]) if on.size else record.time.size, 1)])
+        rest.append(record.temperature[:max(first_power(record), 1)])
     if not rest:
         return None
     return float(np.median(np.concatenate(rest)))
