@@ -10,7 +10,7 @@ its posterior's spreads are the description's uncertainties then). Printed per m
 the verdict, what is named or helps, the held-out RMSE beside the repeats' spread on
 the same samples, the CPU time, the findings (values moved beyond their stated spread,
 in spreads), the verdict's sentence and, for an unexplained verdict whose residual one
-moment carries, where (diagnosis/where.py). Figures, not assertions.
+moment carries, where (calibration/where.py). Figures, not assertions.
 """
 import one_blas_thread  # noqa: F401  (before NumPy: one BLAS thread per process)
 import argparse  # noqa: I100, I201

@@ -9,7 +9,9 @@ import numpy as np
 
 from tca_ros.calibration.calibration import ROOM
 from tca_ros.calibration.candidates import THERMOMETER_TOLERANCE_K
+from tca_ros.calibration.conditions import is_isometric
 from tca_ros.calibration.predictions import full_predictions
+from tca_ros.calibration.where import window_note
 from tca_ros.model.quasistatic_effects import equilibrium_bound
 from tca_ros.model.thermal import HeatBalance
 
@@ -72,10 +74,28 @@ def format_summary(cal):
             lines.append(f'{name:<36s}{a:>12.1%}{b:>18.1%}')
         lines.append(f'{"median":<36s}{np.median(cal.start_nrmse):>12.1%}'
                      f'{np.median(cal.nrmse):>18.1%}')
+    lines += [f'note: {n}' for n in where_fitted(cal.records, cal.fit)]
     lines += [f'note: {n}' for n in cal.notes]
     if not cal.report.success:
         lines.append(f'warning: the fit did not converge ({cal.report.message})')
     return '\n'.join(lines)
+
+
+def where_fitted(records, fits):
+    """Return the note (a list of at most one) on where the calibrated fit misses most.
+
+    ``records``: the Records calibrated on; ``fits``: per record the calibrated
+    full-dynamics contraction (m) on its samples (empty when not scored). Isometric
+    records (a force, not a contraction) are not judged. The note says when one
+    moment carries much of the displacement residual (where.window_note), which the
+    calibration fitted as if it were the muscle.
+    """
+    if not fits or len(fits) != len(records) or any(is_isometric(r) for r in records):
+        return []
+    note = window_note(records, [r.displacement - np.asarray(f, float)
+                                 for r, f in zip(records, fits)], 'displacement', 1e3, 'mm')
+    return [note + '; the calibration fitted that moment as muscle too: if it is not the '
+            "muscle's, calibrate on the records without it"] if note else []
 
 
 def format_plausibility(cal):

@@ -13,6 +13,7 @@ import numpy as np
 from tca_ros.calibration.candidates import ABSORBED, absorbed_candidates
 from tca_ros.calibration.conditions import held_strength
 from tca_ros.calibration.progress import Progress
+from tca_ros.calibration.where import where_notes
 from tca_ros.diagnosis.detectability import detectability_note
 from tca_ros.diagnosis.extension import Nominal, run_search, second_opinions
 from tca_ros.diagnosis.heat_loss_note import heat_loss_note
@@ -22,7 +23,6 @@ from tca_ros.diagnosis.nominal import calibrate_training_part, candidates_of, Di
     nominal_with_fallback, read_any, record_nominal
 from tca_ros.diagnosis.parameter_names import NOMINAL_NAMES
 from tca_ros.diagnosis.verdict import gain, holds_one_load, needs_explaining, ONE_LOAD_NOTE
-from tca_ros.diagnosis.where import where_notes
 from tca_ros.records.data import DataError, record_config
 
 VERDICTS = ('explained', 'adequate', 'unexplained')
@@ -253,7 +253,8 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
             [p.record.displacement - s.displacement for p, s in zip(problems, extendeds)],
             [p.full_heldout_index for p in problems]))
     if verdict == 'unexplained':  # where to look: one moment, or everywhere
-        notes.extend(where_notes(problems, extendeds, needs_explaining(extended_stats)))
+        notes.extend(where_notes([p.record for p in problems], extendeds,
+                                 needs_explaining(extended_stats)))
     notes.extend(detectability_note(problems, nominals, nominal.stats, nominal.whole_stats,
                                     effects))
     helpful = []

@@ -1,11 +1,11 @@
-"""Where in the records the model's residual sits, for a verdict that leaves structure.
+"""Where in the records the model's residual sits: a calibration's fit, a verdict's residual.
 
-An ``unexplained`` verdict says the model misses something; a reader then wants to
-look at the records where it misses most. A model error the muscle makes everywhere
-(a wrong stroke law, a missing lag) spreads its residual over every heating and
-cooling; an event of one moment (a reading that jumps, a mass that touches, a clamp
-that slips, a first heating unlike the later ones) puts much of it into a few
-seconds. ``residual_window`` finds the window of WINDOW_SHARE of the records' time
+A calibration that fits badly somewhere, or an ``unexplained`` verdict, says the model
+misses something; a reader then wants to look at the records where it misses most. A
+model error the muscle makes everywhere (a wrong stroke law, a missing lag) spreads its
+residual over every heating and cooling; an event of one moment (a reading that jumps, a
+mass that touches, a clamp that slips, a first heating unlike the later ones) puts much
+of it into a few seconds. ``residual_window`` finds the window of WINDOW_SHARE of the records' time
 whose residual, less each record's offset and linear drift (the verdict's nuisance),
 carries the largest share of the squared residual, and ``window_note`` says it when
 that share is at least CONCENTRATION times the window's share of the samples.
@@ -25,13 +25,18 @@ MIN_WINDOW_SAMPLES = 3
 CONCENTRATION = 9.0
 #: the reported span is the window's samples whose residual exceeds this many times the
 #: RMS of the rest of their record (-)
-TRIM_FACTOR = 2.0
+TRIM_FACTOR = 4.0
 
 
-def detrended(residual, time):
-    """Return ``residual`` less its least-squares offset and linear drift over ``time`` (s)."""
+def detrended(residual, time, fitted=None):
+    """Return ``residual`` less its least-squares offset and linear drift over ``time`` (s).
+
+    ``fitted``: a boolean mask of the samples the offset and drift are fitted on
+    (default all); they are taken out of every sample.
+    """
     design = np.column_stack([np.ones_like(time), time - time[0]])
-    coef, *_ = np.linalg.lstsq(design, residual, rcond=None)
+    keep = slice(None) if fitted is None else fitted
+    coef, *_ = np.linalg.lstsq(design[keep], residual[keep], rcond=None)
     return residual - design @ coef
 
 
@@ -76,8 +81,10 @@ def window_note(records, residuals, channel, unit_scale, unit):
     if share < CONCENTRATION * samples:
         return None
     rec = records[k]
-    part = detrended(np.asarray(residuals[k], float), rec.time)
     inside = (rec.time >= t0) & (rec.time <= t1)
+    # the record's offset and drift from the rest of it: the moment would pull them
+    part = detrended(np.asarray(residuals[k], float), rec.time,
+                     ~inside if (~inside).sum() >= 2 else None)
     rms_out = float(np.sqrt(np.mean(part[~inside] ** 2))) if (~inside).any() else 0.0
     # the window's span where the residual stands out from the rest of its record
     loud = np.flatnonzero(inside & (np.abs(part) > TRIM_FACTOR * rms_out))
@@ -100,13 +107,12 @@ def window_note(records, residuals, channel, unit_scale, unit):
 PRINTED = {'displacement': (1e3, 'mm'), 'temperature': (1.0, 'K')}
 
 
-def where_notes(problems, sims, channels):
-    """Return the notes of :func:`window_note` for ``channels`` (names) of the diagnosis.
+def where_notes(records, sims, channels):
+    """Return the notes of :func:`window_note` for ``channels`` (names) of ``records``.
 
-    ``problems``: its FitProblems (their records); ``sims``: per record the
-    simulation judged (the extended model's), on the records' samples.
+    ``records``: Records; ``sims``: per record the simulation judged (an object
+    with the channels as attributes, SI units), on the records' samples.
     """
-    records = [p.record for p in problems]
     out = []
     for c in dict.fromkeys(channels):
         scale, unit = PRINTED.get(c, (1.0, ''))
