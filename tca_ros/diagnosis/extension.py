@@ -11,6 +11,7 @@ from dataclasses import dataclass
 
 from tca_ros.calibration.candidates import contradicted_by_measurement, parameters_at_bounds
 from tca_ros.calibration.physical_priors import prior_spreads
+from tca_ros.diagnosis.effect_size import below_floor, below_floor_note
 from tca_ros.diagnosis.family_rivals import decisive_despite_structure, family_rivals
 from tca_ros.diagnosis.findings import explain_findings, finding_effects, findings_rival, \
     found_text, unexplained_findings
@@ -145,13 +146,16 @@ def second_opinions(nominal, calibrate_with, effects, values, extendeds, rounds,
     model leaves adequate while its calibration moved values beyond the description
     gets those effects tested as the finding's cause (findings.py); an explanation
     with a parameter at the end of its range is not one; a single effect of a
-    family, or a pair, gets its rivals said (family_rivals.py).
+    family, or a pair, gets its rivals said (family_rivals.py); an effect named on
+    the residual's evidence whose own part of the prediction is within the
+    structure floor is not named (effect_size.py).
     """
     # an explanation with a parameter at the end of its range is none: the joint stage
     # and the findings' effects get their chance at what it stands in for
     judgement = at_bounds(nominal.judged(effects, values, extendeds), effects, values,
                           nominal.candidates)
     cal, joint, found = nominal.cal, None, False
+    on_findings = set()  # effects named on the findings' evidence: values the fit moved
     named_by_findings = finding_effects(cal)
     one_load = holds_one_load([p.record for p in nominal.problems])
     if judgement[2] == 'unexplained' and cal is not None and rounds:
@@ -189,6 +193,7 @@ def second_opinions(nominal, calibrate_with, effects, values, extendeds, rounds,
         if taken is not None:
             joint = taken.fit
             effects, values, extendeds, judgement = nominal.adopted(joint)
+            on_findings = set(effects)
             if taken.over_described is not None and judgement[2] == 'unexplained':
                 # named on the description's evidence; the verdict says both
                 found = True
@@ -220,6 +225,7 @@ def second_opinions(nominal, calibrate_with, effects, values, extendeds, rounds,
         if taken is not None:
             joint = taken.fit
             effects, values, extendeds, judgement = nominal.adopted(joint)
+            on_findings = set(effects)
             rmse, stats, verdict, explanation = judgement
     if verdict == 'explained' and joint is None and cal is not None:
         # a member within what the description states is the muscle as described (G69)
@@ -241,6 +247,16 @@ def second_opinions(nominal, calibrate_with, effects, values, extendeds, rounds,
             else:
                 effects, values, extendeds, judgement = nominal.adopted(taken)
             rmse, stats, verdict, explanation = judgement
+    small = below_floor(nominal.problems, nominal.stats,
+                        [e for e in effects if e not in on_findings], values, extendeds)
+    if small:  # an effect whose own part of the prediction the verdict calls noise
+        kept = [e for e in effects if e not in dict(small)]
+        notes.append(below_floor_note(small, kept))
+        if kept:
+            effects = kept
+        else:
+            effects, values, extendeds, found = [], dict(nominal.start_values), nominal.sims, False
+            rmse, stats, verdict, explanation = nominal.judged(effects, values, extendeds)
     return effects, values, extendeds, (rmse, stats, verdict, explanation), found
 
 

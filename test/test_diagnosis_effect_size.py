@@ -1,0 +1,42 @@
+"""An effect is named only where its own part of the prediction exceeds the structure floor."""
+import numpy as np
+
+from tca_ros.diagnosis import diagnose
+from tca_ros.diagnosis.effect_size import below_floor_note, switched_off
+from tca_ros.model.effects import CATALOGUE
+from tca_ros.params.files import dump_params, load_params
+from tca_ros.synthetic.descriptions import describe, TIGHTNESS
+from tca_ros.synthetic.realistic import realistic_case, truth_path
+
+
+def test_switching_an_effect_off_puts_its_size_at_the_neutral_default():
+    assert switched_off('friction') == {'effects.friction_force': 0.0}
+    assert switched_off('power_loss') == {'effects.power_loss_fraction': 0.0}
+    neutral = load_params('free_stroke')  # a shipped config holds no effect
+    assert switched_off('coil_contact') is None  # the coils' geometry: nothing neutral
+    for name in set(CATALOGUE) - {'coil_contact'}:
+        ((size, value),) = switched_off(name).items()
+        assert size == CATALOGUE[name][0]
+        assert neutral.with_values(**{size: value}).effects == neutral.effects, name
+    note = below_floor_note([('friction', {'displacement': (4e-5, 5.5e-5)})], ['creep'])
+    assert 'friction (displacement 40 within 55 um)' in note and 'creep is named' in note
+
+
+def test_a_friction_moving_the_stroke_less_than_its_practical_floor_is_not_named(tmp_path):
+    # seed 9600 of the confusion benchmark: no effect hidden, a cst plant at 100 Hz with
+    # a thermometer, described exactly. The calibrated nominal model leaves 106 um the
+    # inputs predict (floor 55 um: 0.5 % of the swing); a friction of 1 mN calibrated
+    # jointly takes it just below the floor while changing the prediction by 40 um: not
+    # named (a creep that moves it by 473 um under 556 um of noise, tuned seed 9106, is)
+    record, start = realistic_case(9600, [], str(tmp_path))
+    description = str(tmp_path / 'exact.yaml')
+    dump_params(describe(load_params(truth_path(str(tmp_path), 9600)), load_params(start),
+                         'exact', np.random.default_rng([9600, TIGHTNESS.index('exact')])),
+                description)
+    result = diagnose(record, description, progress=False)
+    assert result.effects == [] and result.verdict == 'unexplained', result.notes
+    (note,) = [n for n in result.notes if n.startswith('fitted but not named')]
+    assert 'friction (displacement' in note and "nominal model's" in note
+    own, floor = (float(x) for x in note.split('displacement ')[1].split(' um')[0]
+                  .split(' within '))
+    assert 0.0 < own <= floor
