@@ -5,10 +5,11 @@ misses something; a reader then wants to look at the records where it misses mos
 model error the muscle makes everywhere (a wrong stroke law, a missing lag) spreads its
 residual over every heating and cooling; an event of one moment (a reading that jumps, a
 mass that touches, a clamp that slips, a first heating unlike the later ones) puts much
-of it into a few seconds. ``residual_window`` finds the window of WINDOW_SHARE of the records' time
-whose residual, less each record's offset and linear drift (the verdict's nuisance),
-carries the largest share of the squared residual, and ``window_note`` says it when
-that share is at least CONCENTRATION times the window's share of the samples.
+of it into a few seconds. ``residual_window`` finds the window of WINDOW_SHARE of the
+records' time whose residual, less each record's offset and linear drift (the
+verdict's nuisance), carries the largest share of the squared residual, and
+``window_note`` says it when that share is at least CONCENTRATION times the window's
+share of the samples.
 """
 import math
 

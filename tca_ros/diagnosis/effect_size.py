@@ -12,7 +12,7 @@ named (docs/diagnosis_method.md, "An effect's own size").
 
 ``own_contribution`` measures that part, per channel, each record's difference less
 its offset and linear drift (the verdict's nuisance), pooled over the records;
-``below_floor`` lists the effects whose part stays within the floor on every channel.
+``below_floor`` lists the effects whose part stays within that share on every channel.
 """
 import math
 
@@ -45,16 +45,14 @@ def own_contribution(problems, values, extendeds, name):
     linear drift; the RMS over every record's samples (channel unit: m, K, ...).
     """
     off = {**values, **switched_off(name)}
+    withouts = [p.simulate_full(off) for p in problems]
     out = {}
     for c in problems[0].channels:
-        squares, count = 0.0, 0
-        for p, on in zip(problems, extendeds):
-            without = p.simulate_full(off)
-            part = detrended(np.asarray(getattr(on, c), float)
-                             - np.asarray(getattr(without, c), float), p.record.time)
-            squares += float(part @ part)
-            count += part.size
-        out[c] = math.sqrt(squares / count) if count else 0.0
+        parts = [detrended(np.asarray(getattr(on, c), float)
+                           - np.asarray(getattr(without, c), float), p.record.time)
+                 for p, on, without in zip(problems, extendeds, withouts)]
+        count = sum(part.size for part in parts)
+        out[c] = math.sqrt(sum(float(part @ part) for part in parts) / count) if count else 0.0
     return out
 
 
@@ -96,13 +94,12 @@ PRINTED = {'displacement': (1e6, 'um'), 'temperature': (1.0, 'K'), 'force': (1e3
 
 def below_floor_note(small, kept):
     """Return the note on the effects ``below_floor`` found; ``kept``: the names still named."""
-    parts = []
-    for name, sizes in small:
-        said = ', '.join(f'{c} {part * PRINTED.get(c, (1.0, ""))[0]:.3g} within '
-                         f'{floor * PRINTED.get(c, (1.0, ""))[0]:.3g} '
-                         f'{PRINTED.get(c, (1.0, ""))[1]}'.rstrip()
-                         for c, (part, floor) in sizes.items())
-        parts.append(f'{name} ({said})')
+    def said(channel, part, floor):
+        scale, unit = PRINTED.get(channel, (1.0, ''))
+        return f'{channel} {part * scale:.3g} within {floor * scale:.3g} {unit}'.rstrip()
+
+    parts = [f'{name} (' + ', '.join(said(c, *sizes[c]) for c in sizes) + ')'
+             for name, sizes in small]
     then = (f'; {" + ".join(kept)} is named' if kept else
             "; the verdict is the calibrated nominal model's")
     return ('fitted but not named: ' + '; '.join(parts) + ': switched off, the effect '

@@ -147,8 +147,8 @@ def second_opinions(nominal, calibrate_with, effects, values, extendeds, rounds,
     gets those effects tested as the finding's cause (findings.py); an explanation
     with a parameter at the end of its range is not one; a single effect of a
     family, or a pair, gets its rivals said (family_rivals.py); an effect named on
-    the residual's evidence whose own part of the prediction is within the
-    structure floor is not named (effect_size.py).
+    the residual's evidence whose own part of the prediction is within 0.5 % of the
+    swing is not named (effect_size.py).
     """
     # an explanation with a parameter at the end of its range is none: the joint stage
     # and the findings' effects get their chance at what it stands in for
@@ -249,7 +249,7 @@ def second_opinions(nominal, calibrate_with, effects, values, extendeds, rounds,
             rmse, stats, verdict, explanation = judgement
     small = below_floor(nominal.problems, nominal.stats,
                         [e for e in effects if e not in on_findings], values, extendeds)
-    if small:  # an effect whose own part of the prediction the verdict calls noise
+    if small:  # an effect whose own part of the prediction the verdict would ignore
         kept = [e for e in effects if e not in dict(small)]
         notes.append(below_floor_note(small, kept))
         if kept:
