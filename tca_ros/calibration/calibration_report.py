@@ -11,7 +11,7 @@ from tca_ros.calibration.calibration import ROOM
 from tca_ros.calibration.candidates import THERMOMETER_TOLERANCE_K
 from tca_ros.calibration.conditions import is_isometric
 from tca_ros.calibration.predictions import full_predictions
-from tca_ros.calibration.where import window_note
+from tca_ros.calibration.where import PRINTED, window_note
 from tca_ros.model.quasistatic_effects import equilibrium_bound
 from tca_ros.model.thermal import HeatBalance
 
@@ -93,7 +93,8 @@ def where_fitted(records, fits):
     if not fits or len(fits) != len(records) or any(is_isometric(r) for r in records):
         return []
     note = window_note(records, [r.displacement - np.asarray(f, float)
-                                 for r, f in zip(records, fits)], 'displacement', 1e3, 'mm')
+                                 for r, f in zip(records, fits)], 'displacement',
+                       *PRINTED['displacement'])
     return [note + '; the calibration fitted that moment as muscle too: if it is not the '
             "muscle's, calibrate on the records without it"] if note else []
 
