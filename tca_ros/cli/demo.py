@@ -104,16 +104,20 @@ def _run(out, path, model, sim_seconds, env):
     executor.add_node(recorder)
     qos = QoSProfile(depth=1000)
     rows = {'joint': [], 'temperature': [], 'power': []}
-    setpoint_pub = recorder.create_publisher(Float64, 'displacement_setpoint',
-                                             QoSProfile(depth=10))
+    reference_pub = recorder.create_publisher(JointState, 'reference', QoSProfile(depth=10))
+    reference = JointState(name=['tca_joint'], position=[0.0])
 
     def on_joint(msg):
         t = msg.header.stamp.sec + 1e-9 * msg.header.stamp.nanosec
         sp = setpoint_at(t, sim_seconds)
         if not rows['joint'] or t > rows['joint'][-1][0]:  # the first state may repeat
             rows['joint'].append((t, msg.position[0], sp))
-        # every sample, not only on change: a late-matched controller still gets it
-        setpoint_pub.publish(Float64(data=sp))
+        # the setpoint of this state, under its stamp: tca_pid (stamped_reference) waits
+        # for it, so the loop does not run ahead of this recorder (a setpoint that arrived
+        # late, under load, made the tracking error vary between runs)
+        reference.header.stamp = msg.header.stamp
+        reference.position[0] = sp
+        reference_pub.publish(reference)
 
     def on_temperature(msg):
         t = msg.header.stamp.sec + 1e-9 * msg.header.stamp.nanosec
@@ -132,11 +136,13 @@ def _run(out, path, model, sim_seconds, env):
     recorder.create_subscription(Float64, 'power', on_power, qos)
 
     # In lockstep the simulator repeats its first state until a command arrives, and the
-    # controller (wait_for_setpoint) commands only once it has a setpoint, which this
-    # recorder sends on every state it receives: sim time 0 waits for the whole loop.
+    # controller (wait_for_setpoint, stamped_reference) answers a state only with the
+    # setpoint of its stamp, which this recorder sends on every state it receives: each
+    # tick waits for the whole loop, so two runs give the same tracking error.
     # tca_pid takes its time from the state's stamps: without use_sim_time it reads no
     # /clock, one message less per tick (docs/node_figures.md, lockstep speed).
-    pid = _start('tca_ros.ros.pid_node', ['-p', 'wait_for_setpoint:=true'],
+    pid = _start('tca_ros.ros.pid_node', ['-p', 'wait_for_setpoint:=true',
+                                          '-p', 'stamped_reference:=true'],
                  out / 'demo_pid.log', env)
     tca = _start('tca_ros.ros.node', ['--params-file', path, '-p', f'model:={model}',
                                       '-p', 'publish_clock:=true', '-p', 'real_time_factor:=0.0',
