@@ -19,7 +19,9 @@ reads a joint fit (candidates.twin_shift within 2 spreads: a power loss within t
 stated delivered power, an ambient offset within the stated room and, without a
 thermometer, T_z, a radiation or a convection exponent within the stated heat loss),
 may also be absorbed: nothing named); an out-of-catalogue case is "unexplained" with
-nothing named. Singles are also split by an oracle
+nothing named. Singles are also split by the record's conditions (the plant's
+kinetostatic model, jittered stamps, a start not at rest: realistic.conditions draws the
+last two on rod plants only) and by an oracle
 (bench_diagnosis_real.effect_shows): does the truth with its effect switched off
 leave structure on the records by the verdict's own test? Where it does not, the
 effect left no trace the test sees (right there: nothing named, or the effect itself).
@@ -159,6 +161,17 @@ def rival_noted(row):
                for n in row['notes'])
 
 
+#: (label, row -> bool): the record conditions the single-effect rows are split by
+RECORD_CONDITIONS = (
+    ('cst plant, at rest, even stamps',
+     lambda r: r['plant'] == 'cst' and not r['jitter'] and not r['not_at_rest']),
+    ('rod plant, jittered stamps', lambda r: r['plant'] == 'rod' and r['jitter']),
+    ('rod plant, not at rest', lambda r: r['plant'] == 'rod' and r['not_at_rest']),
+    ('rod plant, at rest, even stamps',
+     lambda r: r['plant'] == 'rod' and not r['jitter'] and not r['not_at_rest']),
+)
+
+
 def named(row):
     """Return what a row's diagnosis named (or its verdict when it named nothing)."""
     return ' + '.join(row['found']) or (UNEXPLAINED if row['verdict'] == UNEXPLAINED
@@ -191,6 +204,11 @@ def print_tables(rows):
         for value in (False, True):
             line(f'single, {"" if value else "not "}{label}',
                  lambda r, k=name, v=value: r['family'] == 'single' and bool(r[k]) == v)
+    # the record conditions go with the seed (realistic.conditions): jittered stamps and
+    # a start not at rest are drawn on rod plants only, so a condition's row is its plant's
+    for label, keep in RECORD_CONDITIONS:
+        line(f'single, {label}', lambda r, k=keep: r['family'] == 'single' and k(r),
+             skip_empty=True)
     line('single, right or the truth a noted rival', lambda r: r['family'] == 'single',
          good=lambda r: right(r) or rival_noted(r))
     # the oracle of effect_shows: can the verdict's test see the hidden effect at all?
