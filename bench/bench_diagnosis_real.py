@@ -151,7 +151,8 @@ def _plant_leaves_structure(record_paths, truth_files, wholes, values=None):
 
     Each record simulated by its truth's model from its logged inputs; the
     records judged together (channel_stats) on the held-out parts (``wholes``
-    holding False) and on the whole records (True).
+    holding False) and on the whole records (True). None when a truth so changed
+    cannot be simulated on its record (the oracle has no answer there).
     """
     from tca_ros.diagnosis.fitting import FitProblem, TRAIN_FRACTION
     from tca_ros.diagnosis.holdout import choose_validation
@@ -163,7 +164,10 @@ def _plant_leaves_structure(record_paths, truth_files, wholes, values=None):
     truths = [load_params(path) for path in truth_files]
     problems = [FitProblem(r, t.with_values(**(values or {})), model=t.model,
                            validation=validation) for r, t in zip(records, truths)]
-    sims = [p.simulate_full({}) for p in problems]
+    try:
+        sims = [p.simulate_full({}) for p in problems]
+    except (ValueError, ArithmeticError):  # e.g. the effect switched off heats it past 260 degC
+        return None
     return any(st.structured for whole in wholes
                for st in channel_stats(problems, sims, whole=whole).values())
 
