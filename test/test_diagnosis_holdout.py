@@ -101,7 +101,7 @@ def test_input_terms_of_runs_carry_the_power_history_and_the_same_columns():
     predicted = np.cumsum(power) * 1e-5
     runs = [(100, 200), (450, 550), (800, 900)]
     terms = input_terms_in_runs(predicted, predicted * 1e4, power, RATE, 10.0, runs)
-    assert [t.shape for t in terms] == [(100, 6)] * 3
+    assert [t.shape for t in terms] == [(100, 7)] * 3  # six signals and the last direction
     # the slow power lag is still decaying in the last run, 60 s after the power went off
     assert np.ptp(terms[2][:, 5]) > 0.0
     # a flat block has constant, not dropped, columns: the test still runs on all runs

@@ -7,7 +7,8 @@ import pytest
 from tca_ros.diagnosis.noise import (
     ar_fit, ar_order, heldout_deviance_gain, quantisation_sigma, quantisation_step,
     structure_test)
-from tca_ros.diagnosis.regressors import first_order_lag, input_terms, remove_nuisance
+from tca_ros.diagnosis.regressors import first_order_lag, input_terms, last_direction, \
+    remove_nuisance
 from tca_ros.synthetic.realistic import ar1
 
 RATE = 20.0  # Hz
@@ -155,3 +156,30 @@ def test_a_record_that_starts_at_its_zero_has_a_drift_but_no_offset():
     free, _ = heldout_deviance_gain([[(base, cand, RATE)]])
     assert abs(free) < 1e-6  # the free offset took it all
     assert _penalised([[(base, cand, RATE, start)]]) > 10.0 and anchored > 10.0
+
+
+def test_the_last_direction_holds_through_a_pause():
+    rate = np.array([0.0, 0.0, 1.0, 0.001, 0.0, -2.0, -0.01, 0.0, 3.0])
+    assert last_direction(rate).tolist() == [0, 0, 1, 1, 1, -1, -1, -1, 1]
+    assert not last_direction(np.zeros(5)).any()
+
+
+def test_a_play_of_the_stroke_is_structure_the_other_signals_leave_at_the_floor():
+    # a 0.1 mm play (friction holding the end: the reading lags the prediction by up to
+    # half the band, on the side it came from) under coloured noise: the residual is
+    # +-50 um by the direction of the last motion, which no signal linear in the
+    # prediction, its rate or the power's lags follows
+    rng = np.random.default_rng(30)
+    power, predicted, rise = plant(rng)
+    held, y = np.empty(N), predicted[0]
+    for i, x in enumerate(predicted):
+        y = min(max(y, x - 5e-5), x + 5e-5)
+        held[i] = y
+    residual = (held - predicted) + ar1(rng, N, RATE, 20e-6, 2.0) \
+        + 3e-6 * rng.standard_normal(N)
+    terms = input_terms(predicted, rise, power, RATE, 4.0)
+    test = structure_test([(residual, terms, RATE)], swing=float(np.ptp(predicted)))
+    without = structure_test([(residual, terms[:, :-1], RATE)],
+                             swing=float(np.ptp(predicted)))
+    assert test.structured and not without.structured, (test, without)
+    assert test.predictable_rms > without.predictable_rms

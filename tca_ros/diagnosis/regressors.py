@@ -6,6 +6,9 @@ import math
 
 import numpy as np
 
+#: share (-) of a prediction's fastest rate below which it counts as holding (last_direction)
+DIRECTION_FLOOR = 0.02
+
 
 def nuisance_columns(size, block_rate, start=None):
     """Return the nuisance regressors (size x 1 or 2) of one record's block means.
@@ -127,7 +130,28 @@ def _input_signals(predicted, rise, power, sample_rate, thermal_tau):
     rate = np.gradient(predicted) * sample_rate
     return [centred, centred ** 2, rate, np.asarray(rise, dtype=float),
             first_order_lag(power, sample_rate, thermal_tau / 3.0),
-            first_order_lag(power, sample_rate, 3.0 * thermal_tau)]
+            first_order_lag(power, sample_rate, 3.0 * thermal_tau),
+            last_direction(rate)]
+
+
+def last_direction(rate, floor=DIRECTION_FLOOR):
+    """Return the sign (-) of the last motion of a prediction whose rate is ``rate``.
+
+    +1 after a rise, -1 after a fall, held while the prediction moves slower than
+    ``floor`` times its fastest rate (any unit per s); 0 before its first motion.
+    A play between the prediction and the reading (friction holding the end, a
+    hysteresis of the stroke in temperature) leaves a residual of this sign that
+    it keeps while the prediction holds: the heating and cooling branches of the
+    residual against temperature. Linear in no other signal here, a test on the
+    rest would take it for noise (decisions G77).
+    """
+    rate = np.asarray(rate, dtype=float)
+    fastest = float(np.max(np.abs(rate))) if rate.size else 0.0
+    moving = np.abs(rate) > floor * fastest
+    if not fastest > 0.0 or not moving.any():
+        return np.zeros(rate.size)
+    last = np.maximum.accumulate(np.where(moving, np.arange(rate.size), -1))
+    return np.where(last >= 0, np.sign(rate[np.maximum(last, 0)]), 0.0)
 
 
 def _scaled_columns(cols):
