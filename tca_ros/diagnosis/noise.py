@@ -11,7 +11,8 @@ answered with a model of the noise fitted to the data:
 does not depend on the inputs; missing physics does. The residual is
 regressed on signals the inputs drive (the predicted displacement and its
 square and rate, the predicted temperature rise, the power through faster
-and slower first-order lags than the thermal one), with a sensor drift from
+and slower first-order lags than the thermal one, the direction of the
+prediction's last motion, which a play keeps), with a sensor drift from
 the record's zero as nuisance term (an offset and a drift over the segment when
 its start is not given) and an AR(p) noise model (p by BIC, its memory
 capped at MAX_NOISE_TAU_S; feasible generalised least squares, Cochrane &

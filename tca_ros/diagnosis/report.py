@@ -225,7 +225,8 @@ def write_markdown(result, report_dir, figures):
     lines += ['', '## Residual diagnostics (held-out part)', '',
               'A channel is structured when the inputs still predict its residual: an F-test '
               '(p < 0.001) of input-driven terms (model output, its square and rate, the '
-              'temperature rise, the power through faster and slower lags) against an '
+              'temperature rise, the power through faster and slower lags, the direction '
+              'of its last motion) against an '
               'offset, a drift and an AR noise model, and a predictable part larger than '
               'the rest of the residual and than 0.2 % of the swing (noise.py; the noise '
               'may be coloured). Ljung-Box on residuals decimated to 1 Hz; spectral '
