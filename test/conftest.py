@@ -1,7 +1,8 @@
 """Shared fixtures of the tca_ros test suite."""
+import numpy as np
 import pytest
 
-from tca_ros.params.files import load_params
+from tca_ros.params.files import dump_params, load_params
 
 
 @pytest.fixture(scope='session')
@@ -31,3 +32,20 @@ def once_per_worker(key, compute):
     if key not in _ONCE:
         _ONCE[key] = compute()
     return _ONCE[key]
+
+
+def benchmark_case(tmp_path, seed, hidden):
+    """Return (diagnosis, truth) of a confusion benchmark case, described exactly.
+
+    bench_diagnosis_confusion.py's one-record layout: realistic_case's record of
+    ``seed`` with the ``hidden`` effects, the description 'exact' drawn as there.
+    """
+    from tca_ros.diagnosis import diagnose
+    from tca_ros.synthetic.descriptions import describe, TIGHTNESS
+    from tca_ros.synthetic.realistic import realistic_case, truth_path
+    record, start = realistic_case(seed, hidden, str(tmp_path))
+    truth = load_params(truth_path(str(tmp_path), seed))
+    description = str(tmp_path / 'exact.yaml')
+    dump_params(describe(truth, load_params(start), 'exact',
+                         np.random.default_rng([seed, TIGHTNESS.index('exact')])), description)
+    return diagnose(record, description, progress=False), truth

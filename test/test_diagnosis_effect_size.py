@@ -1,12 +1,9 @@
 """An effect is named only where its own part of the prediction exceeds the structure floor."""
-import numpy as np
-
-from tca_ros.diagnosis import diagnose
 from tca_ros.diagnosis.effect_size import below_floor_note, switched_off
 from tca_ros.model.effects import CATALOGUE
-from tca_ros.params.files import dump_params, load_params
-from tca_ros.synthetic.descriptions import describe, TIGHTNESS
-from tca_ros.synthetic.realistic import realistic_case, truth_path
+from tca_ros.params.files import load_params
+
+from conftest import benchmark_case  # noqa: I100
 
 
 def test_switching_an_effect_off_puts_its_size_at_the_neutral_default():
@@ -28,12 +25,7 @@ def test_a_friction_moving_the_stroke_less_than_its_practical_floor_is_not_named
     # inputs predict (floor 55 um: 0.5 % of the swing); a friction of 1 mN calibrated
     # jointly takes it just below the floor while changing the prediction by 40 um: not
     # named (a creep that moves it by 473 um under 556 um of noise, tuned seed 9106, is)
-    record, start = realistic_case(9600, [], str(tmp_path))
-    description = str(tmp_path / 'exact.yaml')
-    dump_params(describe(load_params(truth_path(str(tmp_path), 9600)), load_params(start),
-                         'exact', np.random.default_rng([9600, TIGHTNESS.index('exact')])),
-                description)
-    result = diagnose(record, description, progress=False)
+    result, _ = benchmark_case(tmp_path, 9600, [])
     assert result.effects == [] and result.verdict == 'unexplained', result.notes
     (note,) = [n for n in result.notes if n.startswith('fitted but not named')]
     assert 'friction (displacement' in note and "nominal model's" in note

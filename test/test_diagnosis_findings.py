@@ -12,6 +12,8 @@ from tca_ros.params.files import dump_params, load_params
 from tca_ros.synthetic.descriptions import describe, EXACT_SPREAD, LOOSE
 from tca_ros.synthetic.realistic import realistic_case, truth_path
 
+from conftest import benchmark_case  # noqa: I100
+
 #: one 120 s record at 5 Hz of a cst plant, nothing but the hidden effect and sensor noise
 QUIET = {'rate': 5.0, 'plant': 'cst', 'temperature': False, 'drift': False,
          'nominal_power': False, 'noisy_power': False, 'jitter': False, 'not_at_rest': False}
@@ -29,21 +31,6 @@ def _described(tmp_path, seed, hidden, tightnesses, **conditions):
         dump_params(describe(truth, load_params(start), tightness,
                              np.random.default_rng(seed)), paths[tightness])
     return record, paths, truth
-
-
-def _benchmark_case(tmp_path, seed, hidden):
-    """Return (diagnosis, truth) of a confusion benchmark case, described exactly.
-
-    bench_diagnosis_confusion.py's one-record layout: realistic_case's record of
-    ``seed`` with the ``hidden`` effects, the description 'exact' drawn as there.
-    """
-    from tca_ros.synthetic.descriptions import TIGHTNESS
-    record, start = realistic_case(seed, hidden, str(tmp_path))
-    truth = load_params(truth_path(str(tmp_path), seed))
-    description = str(tmp_path / 'exact.yaml')
-    dump_params(describe(truth, load_params(start), 'exact',
-                         np.random.default_rng([seed, TIGHTNESS.index('exact')])), description)
-    return diagnose(record, description, progress=False), truth
 
 
 def test_a_measured_description_names_the_power_loss_a_guessed_one_absorbs(tmp_path):
@@ -142,7 +129,7 @@ def test_a_sensor_lag_the_heat_capacity_took_up_without_a_thermometer_is_found(t
     # the thermal lags were tested and the second thermal lag was named alone; with the
     # direction of the last motion among the structure test's signals (G77) the sensor
     # lag alone leaves the hysteresis's structure, and the hidden pair is named
-    result, _ = _benchmark_case(tmp_path, 9126, ['sensor_lag', 'hysteresis'])
+    result, _ = benchmark_case(tmp_path, 9126, ['sensor_lag', 'hysteresis'])
     assert [n for n, z, _ in result.calibration.findings()] == ['heat_capacity']
     assert sorted(result.effects) == ['hysteresis', 'sensor_lag'], result.notes
 
@@ -155,7 +142,7 @@ def test_a_friction_in_a_drifting_record_is_confirmed_on_the_whole_record_less_t
     # better (gain > 300) but leaves structure; calibrated on the whole record it left
     # structure too while the fit bent its values to the drift that the verdict's test
     # then removes (decisions G52). Fitted less that drift it is confirmed and named.
-    result, truth = _benchmark_case(tmp_path, 9123, ['friction'])
+    result, truth = benchmark_case(tmp_path, 9123, ['friction'])
     assert result.effects == ['friction']
     assert result.verdict == 'explained'
     assert 'calibrated jointly on the whole record' in result.explanation
@@ -169,7 +156,7 @@ def test_a_hysteresis_the_heat_capacity_took_up_is_tested_as_its_cause(tmp_path)
     # description's calibration moves the heat capacity up, a slower response. Only the
     # lags were tested as its cause and a sensor lag was named; the play (and friction)
     # are tested too now, and the hysteresis explains it (G54)
-    result, truth = _benchmark_case(tmp_path, 9107, ['hysteresis'])
+    result, truth = benchmark_case(tmp_path, 9107, ['hysteresis'])
     assert 'heat_capacity' in [n for n, z, _ in result.calibration.findings()]
     assert result.effects == ['hysteresis']
     assert result.extended_values['effects.hysteresis_width'] == pytest.approx(
@@ -183,7 +170,7 @@ def test_a_search_explanation_faces_the_effect_the_findings_stand_for(tmp_path):
     # refit stays near the description and a coil contact explains the record. The
     # softening the findings stand for, calibrated jointly, predicts the held-out part
     # decisively better (penalised gains 731.8 against 386.6) and replaces it (G57)
-    result, truth = _benchmark_case(tmp_path, 9120, ['modulus_softening'])
+    result, truth = benchmark_case(tmp_path, 9120, ['modulus_softening'])
     assert {'actuation_gain', 'stiffness_scale'} <= {n for n, z, _ in
                                                      result.calibration.findings()}
     assert result.effects == ['modulus_softening'] and result.verdict == 'explained'
@@ -199,7 +186,7 @@ def test_an_ambient_offset_the_first_round_ranked_behind_idle_lags_is_named(tmp_
     # refit's own held-out score; they had their chance and go last (decisions G66), so
     # the offset is calibrated jointly and named. The exact description states the room
     # to 1 K and T_z to 2 K: 7.2 K is beyond what it admits
-    result, truth = _benchmark_case(tmp_path, 9130, ['ambient_offset'])
+    result, truth = benchmark_case(tmp_path, 9130, ['ambient_offset'])
     assert result.effects == ['ambient_offset'], result.notes
     assert result.extended_values['effects.ambient_offset'] == pytest.approx(
         truth.effects.ambient_offset, abs=1.0)
@@ -211,7 +198,7 @@ def test_a_lag_that_predicts_decisively_better_is_named_though_structure_remains
     # jointly, a sensor lag leaves no structure (gain 653.5) and the second lag leaves
     # some (822.1): the held-out deviance says which explains the records, the structure
     # test only that the second lag is not all of the cause (decisions G66)
-    result, _ = _benchmark_case(tmp_path, 9142, ['second_thermal_lag'])
+    result, _ = benchmark_case(tmp_path, 9142, ['second_thermal_lag'])
     assert result.effects == ['second_thermal_lag'], result.notes
     assert result.verdict == 'unexplained'
     assert 'unexplained structure remains beside it' in result.explanation

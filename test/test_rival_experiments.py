@@ -86,16 +86,8 @@ def test_a_second_thermal_lag_with_a_thermometer_is_said_with_its_rival(tmp_path
     # fit that leaves structure is no rival. (Held a whole sample late, the steps had
     # left the two lags either side of the structure floor, and they were said as rivals
     # with the load step that separates them: the unit test above keeps that path.)
-    from tca_ros.diagnosis import diagnose
-    from tca_ros.params.files import dump_params, load_params
-    from tca_ros.synthetic.descriptions import describe, TIGHTNESS
-    from tca_ros.synthetic.realistic import realistic_case, truth_path
-    path, start = realistic_case(9121, ['second_thermal_lag'], str(tmp_path))
-    truth = load_params(truth_path(str(tmp_path), 9121))
-    description = str(tmp_path / 'exact.yaml')
-    rng = np.random.default_rng([9121, TIGHTNESS.index('exact')])
-    dump_params(describe(truth, load_params(start), 'exact', rng), description)
-    result = diagnose(path, description, progress=False)
+    from conftest import benchmark_case
+    result, truth = benchmark_case(tmp_path, 9121, ['second_thermal_lag'])
     assert result.verdict == 'explained' and result.effects == ['second_thermal_lag'], \
         result.notes
     assert not [n for n in result.notes if 'also explained' in n and 'sensor_lag' in n], \

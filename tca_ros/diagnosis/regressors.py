@@ -147,9 +147,9 @@ def last_direction(rate, floor=DIRECTION_FLOOR):
     """
     rate = np.asarray(rate, dtype=float)
     fastest = float(np.max(np.abs(rate))) if rate.size else 0.0
-    moving = np.abs(rate) > floor * fastest
-    if not fastest > 0.0 or not moving.any():
+    if not fastest > 0.0:
         return np.zeros(rate.size)
+    moving = np.abs(rate) > floor * fastest
     last = np.maximum.accumulate(np.where(moving, np.arange(rate.size), -1))
     return np.where(last >= 0, np.sign(rate[np.maximum(last, 0)]), 0.0)
 
