@@ -96,6 +96,8 @@ def _run(out, path, model, sim_seconds, env):
     from sensor_msgs.msg import JointState, Temperature
     from std_msgs.msg import Float64
 
+    from tca_ros.ros.node_schema import NODE_SPECS
+
     # An own context on the demo's private domain: a caller's rclpy stays untouched.
     context = rclpy.Context()
     rclpy.init(context=context, domain_id=int(env['ROS_DOMAIN_ID']))
@@ -105,7 +107,7 @@ def _run(out, path, model, sim_seconds, env):
     qos = QoSProfile(depth=1000)
     rows = {'joint': [], 'temperature': [], 'power': []}
     reference_pub = recorder.create_publisher(JointState, 'reference', QoSProfile(depth=10))
-    reference = JointState(name=['tca_joint'], position=[0.0])
+    reference = JointState(name=[NODE_SPECS['joint_name'].default], position=[0.0])
 
     def on_joint(msg):
         t = msg.header.stamp.sec + 1e-9 * msg.header.stamp.nanosec
