@@ -121,6 +121,10 @@ class Calibration:
     corrections: list = field(default=None, repr=False)
     #: {name: engine.Parameter} of the fitted parameters (their priors and bounds)
     priors: dict = field(default_factory=dict, repr=False)
+    #: {name: z} of values shifted beyond the description that a calibration with each
+    #: record's drift removed brings back within SHIFT_Z spreads (its z): a sensor's
+    #: drift bent them, not an effect; :meth:`findings` leaves them out (decisions G78)
+    drift_shifts: dict = field(default_factory=dict, repr=False)
 
     def plausibility(self):
         """Return [Plausibility]: each value beside its prior and physical reference."""
@@ -169,11 +173,13 @@ class Calibration:
         past their physical limits too (what they stand for, for the diagnosis).
         The room the thermometer reads at rest, beyond SHIFT_Z from the model's
         (:meth:`room_reading`), is one too, named ROOM, standing for an ambient offset.
+        A shift a sensor's drift made (``drift_shifts``) is none.
         """
         from tca_ros.calibration.physical_priors import SHIFT_Z, stands_for
         tau_z = self.time_constant_z()
         out = [(r.name, r.z, stands_for(r.name, tau_z)) for r in self.plausibility()
-               if (r.shifted and not r.implausible) or (implausible and r.implausible)]
+               if r.name not in self.drift_shifts
+               and ((r.shifted and not r.implausible) or (implausible and r.implausible))]
         room = self.room_reading()
         if room is not None and abs(room[2]) > SHIFT_Z:
             out.append((ROOM, room[2], ('ambient_offset',)))

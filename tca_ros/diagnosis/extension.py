@@ -247,8 +247,9 @@ def second_opinions(nominal, calibrate_with, effects, values, extendeds, rounds,
             else:
                 effects, values, extendeds, judgement = nominal.adopted(taken)
             rmse, stats, verdict, explanation = judgement
-    small = below_floor(nominal.problems, nominal.stats,
-                        [e for e in effects if e not in on_findings], values, extendeds)
+    tested = [e for e in effects if e not in on_findings]
+    small = below_floor(nominal.problems, nominal.stats, tested, values, extendeds,
+                        nominal.sims if len(effects) == 1 else None)
     if small:  # an effect whose own part of the prediction the verdict would ignore
         kept = [e for e in effects if e not in dict(small)]
         notes.append(below_floor_note(small, kept))

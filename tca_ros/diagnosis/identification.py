@@ -20,7 +20,7 @@ from tca_ros.diagnosis.heat_loss_note import heat_loss_note
 from tca_ros.diagnosis.holdout import AUTO, choose_validation, DEFAULT_VALIDATION
 from tca_ros.diagnosis.joint import JOINT_NFEV
 from tca_ros.diagnosis.nominal import calibrate_training_part, candidates_of, DiagnosisError, \
-    nominal_with_fallback, read_any, record_nominal
+    nominal_with_fallback, read_any, record_nominal, set_aside_drift_shifts
 from tca_ros.diagnosis.parameter_names import NOMINAL_NAMES
 from tca_ros.diagnosis.verdict import gain, holds_one_load, needs_explaining, ONE_LOAD_NOTE
 from tca_ros.records.data import DataError, record_config
@@ -185,7 +185,7 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
     params_of = start_params = [record_nominal(base, r) for r in records]
     fraction = train_fraction or fitting.TRAIN_FRACTION
     validation = choose_validation(records, fraction, validation)
-    cal, notes = None, [warning] if warning else []
+    cal, drifted, notes = None, None, [warning] if warning else []
     if len(records) > 1:
         notes.append(f'{len(records)} records of one muscle diagnosed together: one '
                      'calibration, shared effect parameters, each record split in time')
@@ -195,6 +195,8 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
         cal, params_of, note = calibrate_training_part(records, params_of, model, fraction,
                                                        supply, progress, validation)
         notes.append(note)
+        cal, drifted = set_aside_drift_shifts(cal, records, start_params, model, fraction,
+                                              supply, validation)
     bar = Progress(progress, EXPECTED_SIMULATIONS * len(records), stage='effect search')
     options = dict(model=model, physics_rate=physics_rate,
                    fit_rate=fit_rate or fitting.FIT_RATE_HZ, train_fraction=fraction,
@@ -205,6 +207,8 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
     except (DataError, DiagnosisError):
         bar.close()
         raise
+    if cal is not None and drifted:  # after the calibration's own note (the fallback's)
+        notes.append(drifted)
     params = params_of[0]
     candidates, absorbed = absorbed_candidates(
         candidates_of(records, params, model, problems, nominals), problem.recalibration)

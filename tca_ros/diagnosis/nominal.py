@@ -168,3 +168,46 @@ def calibrate_training_part(records, params_of, model, fraction, supply, progres
         note += (f'; the record begins {rise:.3g} K above ambient (not at rest: '
                  'thermal.initial_temperature_rise)')
     return cal, calibrated, note
+
+
+def set_aside_drift_shifts(cal, records, params_of, model, fraction, supply, validation):
+    """Return (Calibration, note or None): ``cal`` less the findings a sensor's drift made.
+
+    A value the training part's calibration moved beyond SHIFT_Z prior spreads is
+    a finding, evidence of an effect (findings.py). That calibration fits the
+    residual as it is (decisions G52), so a sensor's drift from the record's zero,
+    which the verdict reads as noise, can bend a stated value too: a defect-free
+    muscle described exactly, its encoder drifting 0.1-0.4 mm over the record
+    (confusion benchmark 9804, 20 Hz), got its stiffness scale moved -3.5 spreads
+    and a modulus softening named for it; without the drift it moved -0.2. The
+    nominal parameters are calibrated again with each record's drift removed
+    (calibrate's ``drift``); a finding whose value that brings back within SHIFT_Z
+    spreads and its physical limits is set aside (Calibration.drift_shifts), and
+    the note says so. The nominal model stays the first calibration's (decisions
+    G52: a drift taken out everywhere takes up slow effects); the room the
+    thermometer reads at rest is no value a drift moves and is kept.
+    """
+    from dataclasses import replace
+    from tca_ros.calibration.physical_priors import SHIFT_Z
+    if cal is None:
+        return cal, None
+    shifted = {name: z for name, z, _ in cal.findings(implausible=True)
+               if name in cal.report.estimates}
+    if not shifted:
+        return cal, None
+    again, _, _ = calibrate_training_part(records, params_of, model, fraction, supply, False,
+                                          validation, drift=True)
+    if again is None:
+        return cal, None
+    redone = {r.name: r for r in again.plausibility()}
+    back = {name: redone[name].z for name in shifted
+            if name in redone and abs(redone[name].z) <= SHIFT_Z
+            and not redone[name].implausible}
+    if not back:
+        return cal, None
+    said = ', '.join(f'{name} ({shifted[name]:+.1f} -> {back[name]:+.1f} spreads)'
+                     for name in back)
+    return replace(cal, drift_shifts=back), (
+        f'not findings: {said}: calibrated again with each record\'s drift from its zero '
+        'removed, the value returns within the description, so a sensor\'s drift bent it, '
+        'not an effect (docs/diagnosis_method.md, "Findings")')
