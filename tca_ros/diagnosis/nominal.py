@@ -189,9 +189,10 @@ def set_aside_drift_shifts(cal, records, params_of, model, fraction, supply, val
     DRIFT_LEAVES of its z left), is set aside (Calibration.drift_shifts), and the
     note says so. A value near the threshold that the drift moves by a hair stays a
     finding: the power loss of benchmark seed 9131 (no drift) moved the heat loss
-    +2.004 spreads, +1.998 without a drift. The nominal model stays the first calibration's (decisions
-    G52: a drift taken out everywhere takes up slow effects); the room the
-    thermometer reads at rest is no value a drift moves and is kept.
+    +2.004 spreads, +1.998 without a drift. The nominal model stays the first
+    calibration's (decisions G52: a drift taken out everywhere takes up slow
+    effects); the room the thermometer reads at rest is no value a drift moves and
+    is kept.
     """
     from dataclasses import replace
     from tca_ros.calibration.physical_priors import SHIFT_Z
@@ -215,6 +216,6 @@ def set_aside_drift_shifts(cal, records, params_of, model, fraction, supply, val
     said = ', '.join(f'{name} ({shifted[name]:+.1f} -> {back[name]:+.1f} spreads)'
                      for name in back)
     return replace(cal, drift_shifts=back), (
-        f'not findings: {said}: calibrated again with each record\'s drift from its zero '
-        'removed, the value returns within the description, so a sensor\'s drift bent it, '
+        f"not findings: {said}: calibrated again with each record's drift from its zero "
+        "removed, the value returns within the description, so a sensor's drift bent it, "
         'not an effect (docs/diagnosis_method.md, "Findings")')
