@@ -218,3 +218,15 @@ def test_a_value_a_sensor_drift_bent_is_not_a_finding(tmp_path):
     (note,) = [n for n in result.notes if n.startswith('not findings:')]
     assert 'stiffness_scale (-3.5 -> ' in note
     assert abs(result.calibration.drift_shifts['stiffness_scale']) <= SHIFT_Z
+
+
+def test_a_finding_a_drift_moves_by_a_hair_stays_a_finding(tmp_path):
+    # seed 9131 of the tuned sample: an 8.4 % power loss on a rod plant at 5 Hz, no
+    # drift. The heat loss moves +2.004 spreads, +1.998 calibrated less a drift: within
+    # 2 spreads, but the drift took back a hair of the shift, not most of it
+    # (nominal.DRIFT_LEAVES), so the finding stands and names the power loss (G78)
+    result, truth = benchmark_case(tmp_path, 9131, ['power_loss'])
+    assert truth.effects.power_loss_fraction > 0.05
+    assert result.effects == ['power_loss'], result.notes
+    assert not result.calibration.drift_shifts
+    assert not [n for n in result.notes if n.startswith('not findings:')]
