@@ -122,8 +122,9 @@ class Calibration:
     #: {name: engine.Parameter} of the fitted parameters (their priors and bounds)
     priors: dict = field(default_factory=dict, repr=False)
     #: {name: z} of values shifted beyond the description that a calibration with each
-    #: record's drift removed brings back within SHIFT_Z spreads (its z): a sensor's
-    #: drift bent them, not an effect; :meth:`findings` leaves them out (decisions G78)
+    #: record's drift removed brings back within SHIFT_Z spreads, taking back most of the
+    #: shift (its z; diagnosis.nominal.set_aside_drift_shifts): a sensor's drift bent
+    #: them, not an effect; :meth:`findings` leaves them out (decisions G78)
     drift_shifts: dict = field(default_factory=dict, repr=False)
 
     def plausibility(self):

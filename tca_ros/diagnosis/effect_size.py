@@ -102,7 +102,7 @@ def below_floor(problems, stats, effects, values, extendeds, nominals=None):
         if name not in CATALOGUE or switched_off(name) is None:
             continue
         parts = own_contribution(problems, values, extendeds, name)
-        if nominals is not None and len(effects) == 1:
+        if nominals is not None:
             changed = change_from(problems, extendeds, nominals)
             parts = {c: max(parts[c], changed[c]) for c in parts}
         sizes = {c: (parts[c], practical_floor(stats[c].structure)) for c in parts
