@@ -217,6 +217,10 @@ def print_tables(rows):
              and r.get('effect_shows') is True)
         line('single, no trace: nothing or it named', lambda r: r['family'] == 'single'
              and r.get('effect_shows') is False, good=lambda r: right(r) or not r['found'])
+        # what a diagnosis can get wholly right: the effect leaves a trace, and the
+        # plant's own parameters leave no structure the verdict could not explain
+        line('single, shows, truth not structured', lambda r: r['family'] == 'single'
+             and r.get('effect_shows') is True and not r['truth_structured'])
     wrong = [r for r in rows if r['family'] != 'null' and set(r['found']) - set(r['hidden'])]
     print(f'an effect named that was not hidden: {len(wrong)}/{len(rows)} diagnoses')
     print(f'\n{"hidden":<34s}{"tightness":<10s}{"rec":>4s}  named (count)')
@@ -236,6 +240,19 @@ def print_tables(rows):
                       f'{np.median(secs):5.1f} s, worst {max(secs):5.1f} s ({len(secs)} runs)')
 
 
+def print_saved(paths):
+    """Print the tables of the rows saved in the JSON files ``paths`` (--save); return 0."""
+    rows = {}
+    for path in paths:
+        with open(path) as f:
+            for r in json.load(f):
+                if 'skipped' not in r:
+                    rows[(r['seed'], r['records'], r['tightness'])] = r
+    print(f'{len(rows)} diagnoses read from {len(paths)} file(s)')
+    print_tables(list(rows.values()))
+    return 0
+
+
 def main(argv=None):
     """Run the benchmark; print the tables."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -251,7 +268,13 @@ def main(argv=None):
     parser.add_argument('--seed', type=int, default=9100)
     parser.add_argument('--only', default='', help='comma-separated seeds to run')
     parser.add_argument('--save', default='', help='write the rows as JSON to this file')
+    parser.add_argument('--tables', default='',
+                        help='comma-separated JSON files of --save: print their tables, run '
+                             'nothing (a row of a later file replaces one of an earlier file '
+                             'with the same seed, records and tightness)')
     args = parser.parse_args(argv)
+    if args.tables:
+        return print_saved(args.tables.split(','))
     masses = tuple(float(m) for m in args.loads.split(',') if m)
     tights = tuple(t for t in args.tightness.split(',') if t)
     todo = cases(args.null, args.per_effect, args.pairs, args.outside, args.seed)

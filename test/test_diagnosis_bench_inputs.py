@@ -358,3 +358,29 @@ def test_an_ambient_offset_the_thermometer_reads_is_named_beside_the_rods_struct
     assert [n for n, _, _ in result.calibration.findings()] == ['ambient_temperature']
     assert result.extended_values['effects.ambient_offset'] == pytest.approx(
         load_params(truth).effects.ambient_offset, abs=THERMOMETER_TOLERANCE_K)
+
+
+def test_the_benchmark_prints_the_tables_of_saved_rows(tmp_path, capsys):
+    # --tables reads --save's JSON files, a later file's row replacing an earlier one of
+    # the same seed, records and tightness: samples run apart (or rerun) give one table
+    import json
+    bench = _bench_module('bench_diagnosis_confusion')
+
+    def row(seed, found, shows=True, structured=False):
+        return {'seed': seed, 'hidden': ['creep'], 'family': 'single', 'tightness': 'exact',
+                'records': 1, 'found': found, 'helpful': [], 'verdict': 'explained',
+                'findings': [], 'notes': [], 'cpu': 1.0, 'truth_structured': structured,
+                'effect_shows': shows, 'admitted': [], 'rate': 2.0, 'plant': 'cst',
+                'nominal_power': False, 'jitter': False, 'not_at_rest': False}
+    first, rerun = tmp_path / 'a.json', tmp_path / 'b.json'
+    first.write_text(json.dumps([row(1, ['friction']), row(2, ['creep']),
+                                 row(3, ['creep'], structured=True)]))
+    rerun.write_text(json.dumps([row(1, ['creep']), {'seed': 4, 'skipped': 'plant'}]))
+    assert bench.main(['--tables', f'{first},{rerun}']) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[0] == '3 diagnoses read from 2 file(s)'
+    cells = {ln[:40].strip(): ln[40:].split() for ln in lines[2:] if ln[:40].strip()}
+    assert cells['single'] == ['3/3']
+    assert cells['single, shows, truth not structured'] == ['2/2']
+    bench.main(['--tables', str(first)])
+    assert '1/2' in capsys.readouterr().out.split('single, shows, truth not structured')[1]
