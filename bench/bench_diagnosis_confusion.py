@@ -241,13 +241,21 @@ def print_tables(rows):
 
 
 def print_saved(paths):
-    """Print the tables of the rows saved in the JSON files ``paths`` (--save); return 0."""
+    """Print the tables of the rows saved in the JSON files ``paths`` (--save); return 0.
+
+    Returns 2, with a one-line error, when a file cannot be read as --save writes them.
+    """
     rows = {}
     for path in paths:
-        with open(path) as f:
-            for r in json.load(f):
-                if 'skipped' not in r:
-                    rows[(r['seed'], r['records'], r['tightness'])] = r
+        try:
+            with open(path) as f:
+                for r in json.load(f):
+                    if 'skipped' not in r:
+                        rows[(r['seed'], r['records'], r['tightness'])] = r
+        except (OSError, ValueError, KeyError, TypeError) as exc:
+            print(f'--tables {path!r}: not a file of rows as --save writes them ({exc!r})',
+                  file=sys.stderr)
+            return 2
     print(f'{len(rows)} diagnoses read from {len(paths)} file(s)')
     print_tables(list(rows.values()))
     return 0

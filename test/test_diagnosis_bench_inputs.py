@@ -384,3 +384,7 @@ def test_the_benchmark_prints_the_tables_of_saved_rows(tmp_path, capsys):
     assert cells['single, shows, truth not structured'] == ['2/2']
     bench.main(['--tables', str(first)])
     assert '1/2' in capsys.readouterr().out.split('single, shows, truth not structured')[1]
+    # a file that is not one: a one-line error and status 2
+    assert bench.main(['--tables', str(tmp_path / 'missing.json')]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("--tables '") and 'missing.json' in err[0]
