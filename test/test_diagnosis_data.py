@@ -118,6 +118,28 @@ def test_a_step_stamped_late_is_averaged_over_its_interval_not_delayed_a_sample(
     assert np.sum(out.power) * 1.0 == pytest.approx(np.sum(rec.power) - 0.2, abs=1e-12)
 
 
+@pytest.mark.parametrize('rate', [20.0, 30.0, 100.0])
+def test_a_record_decimated_for_the_calibration_keeps_its_timing(rate):
+    """A measured ramp read at 10 Hz is the ramp at the coarse times, for even and odd k."""
+    from tca_ros.records.record_ops import decimated
+    t = np.arange(0.0, 12.0, 1.0 / rate)
+    rec = Record(time=t, power=np.ones_like(t), load=np.full_like(t, 0.3),
+                 displacement=1e-3 * t, temperature=25.0 + 2.0 * t,
+                 meta={'sample_rate_hz': rate})
+    out = decimated(rec, 10.0)
+    assert out.sample_rate == pytest.approx(10.0)
+    # a window of k samples from k/2 before each coarse sample read 20 Hz 25 ms late:
+    # 25 um on this ramp, 50 mK on the temperature
+    np.testing.assert_allclose(out.displacement, 1e-3 * out.time, rtol=0.0, atol=1e-12)
+    np.testing.assert_allclose(out.temperature, 25.0 + 2.0 * out.time, rtol=0.0, atol=1e-9)
+    # and it still averages the noise: the white part of a coarse sample falls as 1/sqrt(k)
+    noisy = Record(time=t, power=np.ones_like(t), load=np.full_like(t, 0.3),
+                   displacement=np.random.default_rng(1).standard_normal(t.size),
+                   meta={'sample_rate_hz': rate})
+    k = int(round(rate / 10.0))
+    assert np.std(decimated(noisy, 10.0).displacement[1:-1]) < 1.3 / np.sqrt(k)
+
+
 def _write_bag(path, n=60, rate=20.0, namespace='/finger1'):
     from rosbags.rosbag2 import StoragePlugin, Writer
     from rosbags.typesys import get_typestore, Stores

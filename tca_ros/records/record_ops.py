@@ -54,9 +54,26 @@ def _block_mean(values, starts):
 
 
 def _centred_mean(values, starts, k):
+    """Return the mean of ``values`` over a window of k sample intervals centred on each start.
+
+    An odd k averages the k samples around the start; an even k the k + 1 samples
+    from k/2 before to k/2 after it, the two ends at half weight (the trapezoid
+    rule), so the mean sits at the start's own time either way. A window the
+    record's ends cut is narrowed to the samples on both sides that it has. A
+    window of k samples from k/2 before the start, as this read before, sits half
+    a sample early: a 20 Hz record decimated to 10 Hz read 25 ms late against the
+    model, which a calibration took up as a slower mechanical response (decisions
+    G79).
+    """
     values = np.asarray(values, dtype=float)
+    n = values.size
     cum = np.concatenate(([0.0], np.cumsum(values)))
-    lo = np.clip(starts - k // 2, 0, values.size)
-    hi = np.clip(starts - k // 2 + k, 0, values.size)
-    hi = np.maximum(hi, lo + 1)
-    return (cum[hi] - cum[lo]) / (hi - lo)
+    reach = np.minimum(np.minimum(starts, n - 1 - starts), k // 2)  # samples each side
+    sums = cum[starts + reach + 1] - cum[starts - reach]
+    counts = (2 * reach + 1).astype(float)
+    if k % 2 == 0:
+        whole = reach == k // 2
+        ends = values[starts[whole] - reach[whole]] + values[starts[whole] + reach[whole]]
+        sums[whole] -= 0.5 * ends
+        counts[whole] = k
+    return sums / counts
