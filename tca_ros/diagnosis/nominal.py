@@ -181,8 +181,8 @@ def set_aside_drift_shifts(cal, records, params_of, model, fraction, supply, val
     residual as it is (decisions G52), so a sensor's drift from the record's zero,
     which the verdict reads as noise, can bend a stated value too: a defect-free
     muscle described exactly, its encoder drifting 0.1-0.4 mm over the record
-    (confusion benchmark 9804, 20 Hz), got its stiffness scale moved -3.5 spreads
-    and a modulus softening named for it; without the drift it moved -0.2. The
+    (confusion benchmark 9804, 20 Hz), got its stiffness scale moved -3.8 spreads
+    and a modulus softening named for it; less the drift it moves -0.2. The
     nominal parameters are calibrated again with each record's drift removed
     (calibrate's ``drift``); a finding whose value that brings back within SHIFT_Z
     spreads and its physical limits, taking back most of the shift (at most
