@@ -34,18 +34,23 @@ def once_per_worker(key, compute):
     return _ONCE[key]
 
 
-def benchmark_case(tmp_path, seed, hidden):
+def benchmark_case(tmp_path, seed, hidden, masses=()):
     """Return (diagnosis, truth) of a confusion benchmark case, described exactly.
 
-    bench_diagnosis_confusion.py's one-record layout: realistic_case's record of
-    ``seed`` with the ``hidden`` effects, the description 'exact' drawn as there.
+    bench_diagnosis_confusion.py's layout: realistic_case's record of ``seed`` with
+    the ``hidden`` effects, or with ``masses`` (kg) realistic_loads' records of that
+    muscle at each mass diagnosed together; the description 'exact' drawn as there.
     """
     from tca_ros.diagnosis import diagnose
     from tca_ros.synthetic.descriptions import describe, TIGHTNESS
-    from tca_ros.synthetic.realistic import realistic_case, truth_path
-    record, start = realistic_case(seed, hidden, str(tmp_path))
+    from tca_ros.synthetic.realistic import realistic_case, realistic_loads, truth_path
+    if masses:
+        records, start = realistic_loads(seed, hidden, str(tmp_path), masses)
+    else:
+        record, start = realistic_case(seed, hidden, str(tmp_path))
+        records = record
     truth = load_params(truth_path(str(tmp_path), seed))
     description = str(tmp_path / 'exact.yaml')
     dump_params(describe(truth, load_params(start), 'exact',
                          np.random.default_rng([seed, TIGHTNESS.index('exact')])), description)
-    return diagnose(record, description, progress=False), truth
+    return diagnose(records, description, progress=False), truth
