@@ -47,8 +47,7 @@ def benchmark_case(tmp_path, seed, hidden, masses=()):
     if masses:
         records, start = realistic_loads(seed, hidden, str(tmp_path), masses)
     else:
-        record, start = realistic_case(seed, hidden, str(tmp_path))
-        records = record
+        records, start = realistic_case(seed, hidden, str(tmp_path))
     truth = load_params(truth_path(str(tmp_path), seed))
     description = str(tmp_path / 'exact.yaml')
     dump_params(describe(truth, load_params(start), 'exact',

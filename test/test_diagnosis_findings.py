@@ -223,8 +223,8 @@ def test_a_value_a_sensor_drift_bent_is_not_a_finding(tmp_path):
 def test_a_defect_free_muscle_at_20_hz_with_a_thermometer_leaves_no_finding(tmp_path):
     # seed 10004 of the confusion benchmark's fifth sample: no effect hidden, a cst plant
     # at 20 Hz with a thermometer, described exactly. The calibration reads the record
-    # at 10 Hz; with each coarse sample the mean of the two fine ones before it, the
-    # channels read 25 ms late, the thermometer pinned the heat, and the calibration
+    # at 10 Hz; with each coarse sample the mean of its own fine one and the one before,
+    # the channels read 25 ms late, the thermometer pinned the heat, and the calibration
     # slowed the mechanical response instead: stiffness -2.9, damping +2.6 spreads, and
     # a friction was named. Read centred, both stay within the description (G79)
     result, _ = benchmark_case(tmp_path, 10004, [])

@@ -60,9 +60,9 @@ def _centred_mean(values, starts, k):
     from k/2 before to k/2 after it, the two ends at half weight (the trapezoid
     rule), so the mean sits at the start's own time either way. A window the
     record's ends cut is narrowed to the samples on both sides that it has. A
-    window of k samples from k/2 before the start, as this read before, sits half
-    a sample early: a 20 Hz record decimated to 10 Hz read 25 ms late against the
-    model, which a calibration took up as a slower mechanical response (decisions
+    window of k whole samples from k/2 before the start would sit half a sample
+    early: a 20 Hz record decimated to 10 Hz would read 25 ms late against the
+    model, which a calibration takes up as a slower mechanical response (decisions
     G79).
     """
     values = np.asarray(values, dtype=float)
