@@ -72,17 +72,27 @@ def cases(n_null, per_effect, n_pairs, n_outside, seed0):
 
 
 def _diagnosis(paths, description):
-    """Return (found, helpful, verdict, findings, notes, CPU s) of ``paths`` diagnosed."""
+    """Return the row's fields of ``paths`` diagnosed (found, verdict, findings, notes, ...).
+
+    ``spreads``: each calibrated value's shift from the description in prior
+    spreads ({name: z}), those a sensor's drift made marked in ``drift_shifts``.
+    """
     t0 = time.process_time()
     try:
         r = diagnose(paths if len(paths) > 1 else paths[0], description, progress=False)
     except Exception as exc:  # a failure is a row of the table, not the end of the run
-        return ([f'error: {type(exc).__name__}'], [], 'error', [], [str(exc)[:200]],
-                time.process_time() - t0)
-    findings = ([(n, round(z, 2), list(e)) for n, z, e in r.calibration.findings()]
-                if r.calibration is not None else [])
-    return (list(r.effects), list(r.helpful), r.verdict, findings, list(r.notes),
-            time.process_time() - t0)
+        return {'found': [f'error: {type(exc).__name__}'], 'helpful': [], 'verdict': 'error',
+                'findings': [], 'notes': [str(exc)[:200]], 'spreads': {},
+                'drift_shifts': [], 'cpu': time.process_time() - t0}
+    cal = r.calibration
+    findings = ([(n, round(z, 2), list(e)) for n, z, e in cal.findings()]
+                if cal is not None else [])
+    spreads = ({row.name: round(float(row.z), 2) for row in cal.plausibility()}
+               if cal is not None else {})
+    return {'found': list(r.effects), 'helpful': list(r.helpful), 'verdict': r.verdict,
+            'findings': findings, 'notes': list(r.notes), 'spreads': spreads,
+            'drift_shifts': sorted(cal.drift_shifts) if cal is not None else [],
+            'cpu': time.process_time() - t0}
 
 
 def run_case(args):
@@ -109,11 +119,9 @@ def run_case(args):
         description = os.path.join(case_dir, f'{tightness}.yaml')
         described = describe(truth, start, tightness, rng)
         dump_params(described, description)
-        found, helpful, verdict, findings, notes, cpu = _diagnosis(paths, description)
         rows.append({'seed': seed, 'hidden': hidden, 'family': group_of(hidden),
-                     'tightness': tightness, 'records': len(paths), 'found': found,
-                     'helpful': helpful, 'verdict': verdict, 'findings': findings,
-                     'notes': notes, 'cpu': cpu, 'truth_structured': structured,
+                     'tightness': tightness, 'records': len(paths),
+                     **_diagnosis(paths, description), 'truth_structured': structured,
                      'effect_shows': shows,
                      'admitted': admitted_by(hidden, truth, described, conditions(seed)),
                      **conditions(seed)})

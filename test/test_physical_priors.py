@@ -281,3 +281,28 @@ def test_a_slower_response_stands_for_a_lag_or_a_play():
     from tca_ros.calibration.physical_priors import stands_for
     assert set(stands_for('heat_capacity')) == {'second_thermal_lag', 'sensor_lag',
                                                 'dead_time', 'hysteresis'}
+
+
+def test_values_within_two_spreads_that_are_as_unlikely_together_are_a_finding():
+    from tca_ros.calibration.physical_priors import joint_bound, jointly_shifted, \
+        plausibility, SHIFT_Z
+    assert joint_bound(1) == pytest.approx(SHIFT_Z ** 2)  # one value: the same rule
+    assert joint_bound(2) == pytest.approx(6.18, abs=0.01)
+    # a power loss of benchmark 10034: the heat capacity +1.9, the heat loss +1.8
+    assert jointly_shifted({'heat_capacity': 1.9, 'heat_loss': 1.8,
+                            'damping': 0.4}) == {'heat_capacity', 'heat_loss'}
+    assert jointly_shifted({'heat_capacity': 1.7, 'heat_loss': -1.6}) == set()  # 5.45
+    assert jointly_shifted({'heat_capacity': 1.9, 'heat_loss': 1.4}) == set()  # one alone
+    assert jointly_shifted({'heat_capacity': 1.9, 'heat_loss': 2.5}) == set()  # a finding
+    # the rows say so, and a value a sensor's drift moved is left out of the judgement
+    from tca_ros.calibration.calibration_parameters import calibration_priors
+    start = load_params('free_stroke')
+    priors = calibration_priors(start, nominal_power=True, has_resistance=False)
+    moved = {n: math.exp(math.log(priors[n].prior) + z * priors[n].spread)
+             for n, z in (('heat_capacity', 1.9), ('heat_loss', 1.8), ('damping', 0.4))}
+    rows = {r.name: r for r in plausibility(priors, moved, start)}
+    assert rows['heat_capacity'].z == pytest.approx(1.9)
+    assert rows['heat_capacity'].shifted and rows['heat_loss'].shifted
+    assert not rows['damping'].shifted
+    aside = {r.name: r for r in plausibility(priors, moved, start, aside={'heat_loss'})}
+    assert not aside['heat_capacity'].shifted

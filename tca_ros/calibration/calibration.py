@@ -131,7 +131,7 @@ class Calibration:
         """Return [Plausibility]: each value beside its prior and physical reference."""
         from tca_ros.calibration.physical_priors import plausibility
         fitted = {k: v.value for k, v in self.report.estimates.items()}
-        return plausibility(self.priors, fitted, self.start)
+        return plausibility(self.priors, fitted, self.start, aside=self.drift_shifts)
 
     @property
     def environments(self):

@@ -13,8 +13,9 @@ calibrated jointly with the nominal parameters (joint.joint_calibrations: the
 description's priors on the nominal values, a nearly flat one on the effect's),
 and it **explains the finding** when
 
-1. the values whose findings name it return within SHIFT_Z prior spreads (and
-   within their physical limits: a value past them counts as a finding here);
+1. the values whose findings name it return within SHIFT_Z prior spreads, not
+   jointly beyond JOINT_Z either (physical_priors.jointly_shifted), and within
+   their physical limits (a value past them counts as a finding here);
 2. the calibration's objective, data (on the nominal calibration's channel scales
    and effective sample count) plus priors, falls by more than k ln n_eff
    (k the effect's parameters, n_eff the calibration's effective samples: BIC);
@@ -45,7 +46,7 @@ from dataclasses import dataclass
 import math
 
 from tca_ros.calibration.calibration import ROOM
-from tca_ros.calibration.physical_priors import SHIFT_Z
+from tca_ros.calibration.physical_priors import JOINT_Z, SHIFT_Z
 from tca_ros.diagnosis.joint import changed_values, DECISIVE_DEVIANCE, joint_calibrations, \
     lowers_heldout_rms
 from tca_ros.diagnosis.joint_groups import calibratable
@@ -102,17 +103,18 @@ def finding_effects(cal):
 
 
 def _returned(joint, names):
-    """Return True when calibrated ``names`` are within SHIFT_Z spreads and plausible.
+    """Return True when calibrated ``names`` are no finding any more, and plausible.
 
     ``joint``: the Calibration of an effect and the nominal parameters together.
-    The room the thermometer reads at rest returns when the joint calibration's
-    room (an ambient offset fitted) is within SHIFT_Z of it (Calibration.room_reading).
+    Each value is within SHIFT_Z spreads and none left the description together
+    with others (physical_priors.jointly_shifted, decisions G80). The room the
+    thermometer reads at rest returns when the joint calibration's room (an
+    ambient offset fitted) is within SHIFT_Z of it (Calibration.room_reading).
     """
     rows = {r.name: r for r in joint.plausibility()}
     if ROOM in names and ROOM in [n for n, _, _ in joint.findings()]:
         return False
-    return all(abs(rows[n].z) <= SHIFT_Z and not rows[n].implausible
-               for n in names if n in rows)
+    return all(not rows[n].shifted and not rows[n].implausible for n in names if n in rows)
 
 
 def weigh_finding_effect(fit, cal, problems, nominals):
@@ -293,9 +295,10 @@ def unexplained_findings(cal):
     shifted = ', '.join(f'{n} {z:+.1f} prior spreads' for n, z, _ in cal.findings())
     return ('the calibrated nominal model leaves no structure, but only with values moved '
             f'beyond the uncertainty the description states ({shifted}; a finding is '
-            f'beyond {SHIFT_Z:g}), and none of the catalogue effects they can stand for '
-            'explains the move: the muscle differs from its description there, or an '
-            'effect outside the catalogue acts')
+            f'beyond {SHIFT_Z:g}, or beyond {JOINT_Z:g} with others as unlikely together), '
+            'and none of the catalogue effects they can stand for explains the move: the '
+            'muscle differs from its description there, or an effect outside the catalogue '
+            'acts')
 
 
 def findings_rival(calibrate_with, problems, nominals, cal, candidates, found, sims, added):

@@ -185,7 +185,8 @@ def set_aside_drift_shifts(cal, records, params_of, model, fraction, supply, val
     and a modulus softening named for it; less the drift it moves -0.2. The
     nominal parameters are calibrated again with each record's drift removed
     (calibrate's ``drift``); a finding whose value that brings back within SHIFT_Z
-    spreads and its physical limits, taking back most of the shift (at most
+    spreads (and not jointly beyond JOINT_Z with others: physical_priors.jointly_shifted)
+    and its physical limits, taking back most of the shift (at most
     DRIFT_LEAVES of its z left), is set aside (Calibration.drift_shifts), and the
     note says so. A value near the threshold that the drift moves by a hair stays a
     finding: the power loss of benchmark seed 9131 (no drift) moved the heat loss
@@ -195,7 +196,6 @@ def set_aside_drift_shifts(cal, records, params_of, model, fraction, supply, val
     is kept.
     """
     from dataclasses import replace
-    from tca_ros.calibration.physical_priors import SHIFT_Z
     if cal is None:
         return cal, None
     shifted = {name: z for name, z, _ in cal.findings(implausible=True)
@@ -208,7 +208,7 @@ def set_aside_drift_shifts(cal, records, params_of, model, fraction, supply, val
         return cal, None
     redone = {r.name: r for r in again.plausibility()}
     back = {name: redone[name].z for name in shifted
-            if name in redone and abs(redone[name].z) <= SHIFT_Z
+            if name in redone and not redone[name].shifted
             and abs(redone[name].z) <= DRIFT_LEAVES * abs(shifted[name])
             and not redone[name].implausible}
     if not back:

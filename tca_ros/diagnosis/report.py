@@ -9,7 +9,7 @@ import os
 
 import numpy as np
 
-from tca_ros.calibration.physical_priors import SHIFT_Z
+from tca_ros.calibration.physical_priors import JOINT_Z, SHIFT_Z
 from tca_ros.diagnosis import plots
 from tca_ros.diagnosis.parameter_names import nominal_value
 from tca_ros.diagnosis.summary import heldout_text, nominal_lines
@@ -193,7 +193,8 @@ def write_markdown(result, report_dir, figures):
         lines += ['', '## Nominal parameters', '',
                   'Named and valued as `tca_sim calibrate` prints them (start: the '
                   'description; z: the shift in prior spreads; a shift beyond '
-                  f'{SHIFT_Z:g} spreads is a finding).', '', '```text',
+                  f'{SHIFT_Z:g} spreads is a finding, and so are shifts beyond {JOINT_Z:g} '
+                  'that are as unlikely together).', '', '```text',
                   *nominal_lines(result), '```']
     lines += ['', '![measured vs nominal vs extended](fit.png)', '',
               '## Candidates', '',
