@@ -47,6 +47,7 @@ import time
 from bench_diagnosis_real import effect_shows, EFFECTS, group_of, truth_structured
 import numpy as np
 
+from tca_ros.calibration import physical_priors
 from tca_ros.calibration.physical_priors import prior_spreads
 from tca_ros.diagnosis import diagnose
 from tca_ros.diagnosis.joint import admitted_effects
@@ -75,15 +76,30 @@ def _diagnosis(paths, description):
     """Return the row's fields of ``paths`` diagnosed (found, verdict, findings, notes, ...).
 
     ``spreads``: each calibrated value's shift from the description in prior
-    spreads ({name: z}), those a sensor's drift made marked in ``drift_shifts``.
+    spreads ({name: z}), those a sensor's drift made marked in ``drift_shifts``;
+    ``jointly``: each set of values any of its calibrations found shifted together
+    (physical_priors.jointly_shifted): a row with none is decided as it was without
+    that rule.
     """
+    fired = []  # the sets of values judged shifted together in any calibration (G80)
+    together = physical_priors.jointly_shifted
+
+    def watched(zs):
+        out = together(zs)
+        if out and sorted(out) not in fired:
+            fired.append(sorted(out))
+        return out
+
+    physical_priors.jointly_shifted = watched
     t0 = time.process_time()
     try:
         r = diagnose(paths if len(paths) > 1 else paths[0], description, progress=False)
     except Exception as exc:  # a failure is a row of the table, not the end of the run
         return {'found': [f'error: {type(exc).__name__}'], 'helpful': [], 'verdict': 'error',
                 'findings': [], 'notes': [str(exc)[:200]], 'spreads': {},
-                'drift_shifts': [], 'cpu': time.process_time() - t0}
+                'drift_shifts': [], 'cpu': time.process_time() - t0, 'jointly': fired}
+    finally:
+        physical_priors.jointly_shifted = together
     cal = r.calibration
     findings = ([(n, round(z, 2), list(e)) for n, z, e in cal.findings()]
                 if cal is not None else [])
@@ -92,7 +108,7 @@ def _diagnosis(paths, description):
     return {'found': list(r.effects), 'helpful': list(r.helpful), 'verdict': r.verdict,
             'findings': findings, 'notes': list(r.notes), 'spreads': spreads,
             'drift_shifts': sorted(cal.drift_shifts) if cal is not None else [],
-            'cpu': time.process_time() - t0}
+            'cpu': time.process_time() - t0, 'jointly': fired}
 
 
 def run_case(args):
