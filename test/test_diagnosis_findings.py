@@ -247,10 +247,10 @@ def test_a_finding_a_drift_moves_by_a_hair_stays_a_finding(tmp_path):
 
 def test_two_values_within_their_spreads_but_unlikely_together_name_a_power_loss(tmp_path):
     # seed 10034 of the confusion benchmark's fifth sample: a 9 % power loss at 20 Hz
-    # with no thermometer, described exactly. The calibration moves the heat capacity
-    # and the heat loss about +1.9 and +1.8 spreads: neither alone is a finding (2),
-    # together they are as unlikely as one beyond it (decisions G80), and the power
-    # loss, calibrated jointly, brings both back
+    # with no thermometer, described exactly. The calibration moves the heat capacity,
+    # the heat loss and the gain about +1.9, +1.8 and -1.6 spreads: none alone is a
+    # finding (2), together they are as unlikely as one beyond it (decisions G80), and
+    # the power loss, calibrated jointly, brings them back
     from tca_ros.calibration.physical_priors import JOINT_Z
     result, truth = benchmark_case(tmp_path, 10034, ['power_loss'])
     assert truth.effects.power_loss_fraction > 0.05

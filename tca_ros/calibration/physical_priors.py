@@ -61,8 +61,9 @@ def jointly_shifted(zs):
     together are a finding when the sum of their z^2 passes :func:`joint_bound`:
     as unlikely under the description as one value beyond SHIFT_Z. A power loss of
     9 % described exactly, 20 Hz with no thermometer, moves the heat capacity
-    +1.9 and the heat loss +1.8 spreads (confusion benchmark 10034): neither is
-    a finding alone, the two together are (decisions G80). Empty when they are not.
+    +1.9, the heat loss +1.8 and the actuation gain -1.6 spreads (confusion
+    benchmark 10034): none is a finding alone, the three together are (9.2 against
+    8.02; decisions G80). Empty when they are not.
     """
     between = {n: z for n, z in zs.items() if JOINT_Z < abs(z) <= SHIFT_Z}
     if len(between) < 2 or sum(z * z for z in between.values()) <= joint_bound(len(between)):
