@@ -113,11 +113,11 @@ def test_realistic_hidden_friction_is_found_first_at_its_magnitude(friction_case
 
 
 def test_realistic_hidden_friction_is_named(friction_case):
-    # seed 33 has jittered stamps: with its inputs averaged over each grid interval (G56)
-    # friction leaves 52 um that the inputs predict on the held-out part, under the 107 um
-    # floor, and is named without the whole-record confirmation it needed when steps were
-    # held a sample late (the confirmation is tested on seed 9123 in
-    # test_diagnosis_findings.py)
+    # seed 33 has jittered stamps, read on the steady clock they scatter around (z = 3.1,
+    # decisions G81): friction leaves nothing the inputs predict on the held-out part
+    # (F-test p = 0.0014) and is named without the whole-record confirmation it needed
+    # when steps were held a sample late (G56; the confirmation is tested on seed 9123
+    # in test_diagnosis_findings.py)
     result = friction_case
     assert result.effects == ['friction'], result.explanation
     assert result.verdict == 'explained'

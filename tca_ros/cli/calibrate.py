@@ -103,6 +103,8 @@ def cmd_calibrate(args, out):
     if folder and os.path.exists(folder) and not os.path.isdir(folder):
         raise InputError(f'--out = {args.out!r}: {folder!r} is not a directory')
     records = [read_record(path) for path in args.records]
+    from tca_ros.cli.common import warn_reading
+    warn_reading('calibrate', records)
     config = args.config or record_config(records[0])
     params = load_params(checked_config(config))
     again = sorted(set(_calibrated_on(checked_config(config)))

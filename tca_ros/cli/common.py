@@ -112,6 +112,13 @@ def warn(command, text, stream=None):
     (stream or sys.stderr).write(f'tca_sim {command}: warning: {clip(line, MESSAGE_CHARS)}\n')
 
 
+def warn_reading(command, records):
+    """Warn what reading each record decided that its file does not say (Record.reading)."""
+    for record in records:
+        for note in record.reading:
+            warn(command, f'{record.source}: {note}')
+
+
 class HelpFormatter(argparse.HelpFormatter):
     """Help with at most one default per option, and examples kept as written.
 

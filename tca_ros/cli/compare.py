@@ -150,6 +150,8 @@ def compare(args, out):
     paths = [_resolve(name, '--compare', 'rec_') for name in args.compare]
     posterior = posterior_of_config(args.config, args.draws)
     records = [read_record(path, max_samples=args.max_samples) for path in paths]
+    from tca_ros.cli.common import warn_reading
+    warn_reading('compare', records)
     for path, record in zip(paths, records):
         steps = record.duration * max(args.physics_rate, record.sample_rate)
         if not steps <= args.max_steps:

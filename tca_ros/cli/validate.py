@@ -37,6 +37,8 @@ def cmd_validate(args, out):
     path = checked_config(args.config)
     params = load_params(path)
     records = [read_record(p) for p in args.records]
+    from tca_ros.cli.common import warn_reading
+    warn_reading('validate', records)
     params, warning = held_strength(params, records)
     if warning:
         out.write(warning + '\n')

@@ -186,6 +186,7 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
     fraction = train_fraction or fitting.TRAIN_FRACTION
     validation = choose_validation(records, fraction, validation)
     cal, drifted, notes = None, None, [warning] if warning else []
+    notes += [f'{os.path.basename(p)}: {n}' for p, r in zip(paths, records) for n in r.reading]
     if len(records) > 1:
         notes.append(f'{len(records)} records of one muscle diagnosed together: one '
                      'calibration, shared effect parameters, each record split in time')

@@ -38,6 +38,7 @@ from tca_ros.records.record import ABSOLUTE_ZERO_DEGC, MAX_LOAD_N, MAX_POWER_W  
 from tca_ros.records.record import clip, DataError, held_average, MIN_SAMPLES, POWER_LOGGED, \
     power_logged, Record, TIME, VALUE_RANGES
 from tca_ros.records.record import MAX_TEMPERATURE_DEGC  # noqa: F401
+from tca_ros.records.stamps import sampled_on_clock
 
 REQUIRED_COLUMNS = ('time', 'power', 'load', 'displacement')
 OPTIONAL_COLUMNS = ('temperature', 'resistance', 'force')
@@ -321,12 +322,22 @@ def uniform_record(record, rate=None):
     Inputs (power, load) are each sample's value held to the next sample,
     averaged over each grid interval (record.held_average: the simulator holds
     sample k over [t_k, t_k+1)); outputs are interpolated linearly. A record
-    already uniform within JITTER_TOLERANCE is returned unchanged.
+    already uniform within JITTER_TOLERANCE is returned unchanged. Jittered
+    stamps around a steady clock on which the outputs read smoother are
+    replaced by the clock's ticks first (stamps.sampled_on_clock; its note is
+    added to ``Record.reading``).
     """
     rate = float(rate or record.meta.get('sample_rate_hz') or record.sample_rate)
     steps = np.diff(record.time)
     if np.ptp(steps) <= JITTER_TOLERANCE / rate:
         return record
+    ticks, note = sampled_on_clock(record, rate)
+    if note:
+        record = replace(record, reading=(*record.reading, note))
+    if ticks is not None:
+        record = replace(record, time=ticks - ticks[0])
+        if np.ptp(np.diff(record.time)) <= JITTER_TOLERANCE / rate:
+            return record
     grid = np.arange(0.0, record.time[-1] + 0.5 / rate, 1.0 / rate)
     grid = grid[grid <= record.time[-1]]
 

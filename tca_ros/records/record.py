@@ -77,6 +77,9 @@ class Record:
         Path the record was read from.
     meta_rows : dict
         Line number (1-based) of each header key in the file, for error messages.
+    reading : tuple of str
+        What reading the file decided that the file does not say (which times a
+        jittered record's samples were taken at: stamps.py), one sentence each.
     """
 
     time: np.ndarray
@@ -89,6 +92,7 @@ class Record:
     source: str = ''
     meta_rows: dict = field(default_factory=dict)  # header key -> line number (1-based)
     force: np.ndarray = None  # N, optional gauge column (after meta: positional callers)
+    reading: tuple = ()  # notes of what reading decided (stamps.sampled_on_clock)
 
     @property
     def sample_rate(self):

@@ -224,7 +224,7 @@ def realistic_case(seed, hidden, directory, duration=240.0, mass=None, take=0, *
                       else 0.0)
     logged = np.maximum(logged, 0.0)
     stamps = time_s.copy()
-    if cond['jitter']:  # +-20 % of the period; the reader resamples onto the grid
+    if cond['jitter']:  # sampled on the grid, stamped +-20 % of a period off (on arrival)
         stamps[1:-1] += rng.uniform(-0.2, 0.2, n - 2) / rate
     temperature = (temperature + 0.2 * rng.standard_normal(n)) if cond['temperature'] else None
     start_path = os.path.join(directory, f'start_{seed}.yaml')
