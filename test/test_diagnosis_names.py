@@ -52,7 +52,8 @@ def test_a_shift_beyond_two_prior_spreads_is_a_finding_with_what_it_can_stand_fo
     rows = [row('heat_loss', 2.1), row('stiffness_scale', 1.9)]
     cal = types.SimpleNamespace(  # Calibration.findings: the shifted rows, tau moved
         plausibility=lambda: rows, derived=lambda: {}, time_constant_z=lambda: 1.5,
-        findings=lambda: [(r.name, r.z, stands_for(r.name, 1.5)) for r in rows if r.shifted])
+        findings=lambda: [(r.name, r.z, stands_for(r.name, r.z, 1.5)) for r in rows
+                          if r.shifted])
     lines = plausibility_lines(cal)
     assert lines[0].rstrip().endswith('SHIFTED') and 'SHIFTED' not in lines[1]
     findings = [s for s in lines if s.startswith('finding:')]

@@ -244,10 +244,49 @@ def test_a_heat_loss_finding_stands_for_a_power_loss_with_or_without_tau():
     # power loss the priors let the heat capacity follow part of the way (findings.py
     # tests each as the cause)
     from tca_ros.calibration.physical_priors import stands_for, TAU_STEADY_Z
-    assert stands_for('heat_loss', 0.5 * TAU_STEADY_Z) == ('power_loss',)
-    moved = stands_for('heat_loss', -2.3)
+    assert stands_for('heat_loss', 2.4, 0.5 * TAU_STEADY_Z) == ('power_loss',)
+    moved = stands_for('heat_loss', 2.4, -2.3)
     assert set(moved) == {'radiation', 'nonlinear_convection', 'power_loss'}
-    assert stands_for('heat_loss') == moved  # tau not calibrated: every reading
+    assert stands_for('heat_loss', 2.4) == moved  # tau not calibrated: every reading
+
+
+def test_a_finding_stands_for_the_effects_that_move_its_value_its_way_only():
+    # G82: a lost power, a radiating or softening thread, a lag each move a value one
+    # way; a shift the other way stands for none of them. Benchmark seed 9852 (a sensor
+    # nonlinearity, outside the catalogue): the actuation gain +2.9 spreads only, and a
+    # softening (which lowers the stroke) was named from it
+    from tca_ros.calibration.physical_priors import stands_for, TAU_STEADY_Z
+    assert stands_for('heat_loss', -2.4, 0.5 * TAU_STEADY_Z) == ()  # more power than stated
+    assert stands_for('heat_loss', -2.4, -2.3) == ('nonlinear_convection',)
+    assert 'modulus_softening' in stands_for('actuation_gain', -2.5)
+    assert stands_for('actuation_gain', 2.9) == ('ambient_offset',)
+    assert stands_for('stiffness_scale', 3.4) == ()  # stiffer than described
+    assert set(stands_for('stiffness_scale', -3.4)) == {'modulus_softening', 'creep'}
+    assert stands_for('damping', -2.2) == () and 'friction' in stands_for('damping', 2.2)
+    assert stands_for('delivered_power_ratio', 2.2) == ()
+    assert set(stands_for('heat_capacity', -2.2)) == {'radiation', 'nonlinear_convection'}
+    assert 'ambient_offset' in stands_for('expansion_zero_temperature', -2.2)
+
+
+def test_a_room_offset_moves_the_stroke_per_kelvin_as_the_table_says():
+    # the physics behind the signs of G82: on the convex stroke-temperature relation of
+    # eq. (2) a warmer room strokes more per kelvin, a colder one less; a power loss and
+    # a softening only less
+    from tca_ros.model.simulation import simulate
+    params = load_params('free_stroke')
+    t = np.arange(0.0, 60.0, 0.1)
+    power = np.where((t > 5.0) & (t < 45.0), 0.5, 0.0)
+    load = np.full_like(t, 0.02 * 9.81)
+
+    def stroke(**values):
+        x = simulate(params.with_values(**values), t, power, load, model='cst').displacement
+        return float(x[int(round(44.0 / 0.1))] - x[0])
+
+    base = stroke()
+    assert stroke(**{'effects.ambient_offset': 5.0}) > 1.03 * base
+    assert stroke(**{'effects.ambient_offset': -5.0}) < 0.97 * base
+    assert stroke(**{'effects.power_loss_fraction': 0.15}) < 0.97 * base
+    assert stroke(**{'effects.extra_softening': 8e6}) < 0.97 * base
 
 
 def test_a_glass_transition_plateau_is_found_and_predicts_a_hotter_power():
@@ -279,8 +318,8 @@ def test_a_slower_response_stands_for_a_lag_or_a_play():
     # friction: with it, a sensor nonlinearity at two loads (outside the catalogue)
     # was named friction (test_diagnosis_real.py)
     from tca_ros.calibration.physical_priors import stands_for
-    assert set(stands_for('heat_capacity')) == {'second_thermal_lag', 'sensor_lag',
-                                                'dead_time', 'hysteresis'}
+    assert set(stands_for('heat_capacity', 2.7)) == {'second_thermal_lag', 'sensor_lag',
+                                                     'dead_time', 'hysteresis'}
 
 
 def test_values_within_two_spreads_that_are_as_unlikely_together_are_a_finding():

@@ -178,7 +178,7 @@ class Calibration:
         """
         from tca_ros.calibration.physical_priors import SHIFT_Z, stands_for
         tau_z = self.time_constant_z()
-        out = [(r.name, r.z, stands_for(r.name, tau_z)) for r in self.plausibility()
+        out = [(r.name, r.z, stands_for(r.name, r.z, tau_z)) for r in self.plausibility()
                if r.name not in self.drift_shifts
                and ((r.shifted and not r.implausible) or (implausible and r.implausible))]
         room = self.room_reading()

@@ -184,37 +184,57 @@ def plausibility(parameters, values, params, aside=()):
     return rows
 
 
-#: catalogue effects (model/effects.py) a shift of each calibrated value can stand for
+#: catalogue effects (model/effects.py) a shift of each calibrated value can stand for,
+#: by the shift's direction (+1 up, -1 down): an effect moves a value its own way only,
+#: and a shift no effect makes stands for none (decisions G82)
 STANDS_FOR = {
-    'delivered_power_ratio': ('power_loss',),
-    # a slower response: a lag, or a play (hysteresis) the stroke waits out (G54)
-    'heat_capacity': ('second_thermal_lag', 'sensor_lag', 'dead_time', 'hysteresis'),
-    'stiffness_scale': ('modulus_softening', 'creep'),
-    'actuation_gain': ('power_loss', 'modulus_softening'),
-    'damping': ('second_thermal_lag', 'sensor_lag', 'friction', 'hysteresis'),
-    'actuation_lag': ('second_thermal_lag', 'sensor_lag', 'dead_time'),
-    'expansion_zero_temperature': ('modulus_softening', 'hysteresis'),
+    'delivered_power_ratio': {-1: ('power_loss',)},
+    # a slower response: a lag, or a play (hysteresis) the stroke waits out (G54); a
+    # faster one: a loss that grows with the temperature (a shorter tau when hot)
+    'heat_capacity': {1: ('second_thermal_lag', 'sensor_lag', 'dead_time', 'hysteresis'),
+                      -1: ('radiation', 'nonlinear_convection')},
+    'stiffness_scale': {-1: ('modulus_softening', 'creep')},
+    # on the convex stroke-temperature relation of eq. (2) a warmer room strokes more
+    # per kelvin, a colder one less (without a thermometer nothing else tells)
+    'actuation_gain': {1: ('ambient_offset',),
+                       -1: ('power_loss', 'modulus_softening', 'ambient_offset')},
+    'damping': {1: ('second_thermal_lag', 'sensor_lag', 'friction', 'hysteresis')},
+    'actuation_lag': {1: ('second_thermal_lag', 'sensor_lag', 'dead_time')},
+    # eq. (2) reads T - T_z: a room offset by d moves the stroke as T_z moved by -d
+    'expansion_zero_temperature': {1: ('modulus_softening', 'hysteresis', 'ambient_offset'),
+                                   -1: ('modulus_softening', 'hysteresis', 'ambient_offset')},
     # a stroke that stops growing when hot: the coil softening under its load
-    'expansion_plateau_temperature': ('modulus_softening',),
+    'expansion_plateau_temperature': {-1: ('modulus_softening',)},
+}
+#: the heat loss, read with the time constant (:func:`stands_for`)
+HEAT_LOSS_STANDS_FOR = {
+    'steady': {1: ('power_loss',)},
+    'moved': {1: ('radiation', 'nonlinear_convection', 'power_loss'),
+              -1: ('nonlinear_convection',)},
 }
 TAU_STEADY_Z = 1.0  # |z| of the time constant below which it counts as unchanged
 
 
-def stands_for(name, tau_z=None):
-    """Return the catalogue effects a shift of calibrated ``name`` can stand for.
+def stands_for(name, z, tau_z=None):
+    """Return the catalogue effects a shift of calibrated ``name`` by ``z`` spreads can stand for.
 
+    Signed: each effect moves a value one way (a lag slows the response, so a heat
+    capacity moved down stands for none of the lags); a shift no catalogue effect
+    makes stands for none, and stays a finding the catalogue cannot explain.
     The heat loss is read with the time constant: a steady rise that moved with tau
     unchanged (|``tau_z``| < TAU_STEADY_Z prior spreads) is the power heating the
-    thread (power_loss); with tau it is the loss itself (radiation, nonlinear
-    convection, or another air flow: a condition, conditions.py), or still a power
-    loss that the priors let the heat capacity follow only part of the way (a 23 %
-    loss described to 4 %: heat loss +6.1 spreads, heat capacity +2.8, tau 0.87 x).
+    thread (power_loss, the loss up); with tau it is the loss itself (radiation,
+    nonlinear convection, or another air flow: a condition, conditions.py), or still a
+    power loss that the priors let the heat capacity follow only part of the way (a
+    23 % loss described to 4 %: heat loss +6.1 spreads, heat capacity +2.8, tau
+    0.87 x); a loss moved down with tau only a convection exponent makes (the loss
+    falls below the reference rise where n > 0).
     """
+    sign = 1 if z > 0.0 else -1
     if name == 'heat_loss':
-        if tau_z is not None and abs(tau_z) < TAU_STEADY_Z:
-            return ('power_loss',)
-        return ('radiation', 'nonlinear_convection', 'power_loss')
-    return STANDS_FOR.get(name, ())
+        steady = tau_z is not None and abs(tau_z) < TAU_STEADY_Z
+        return HEAT_LOSS_STANDS_FOR['steady' if steady else 'moved'].get(sign, ())
+    return STANDS_FOR.get(name, {}).get(sign, ())
 
 
 def finding_causes(name, z, effects, tau_z=None, tau_determined=True):
@@ -226,7 +246,8 @@ def finding_causes(name, z, effects, tau_z=None, tau_determined=True):
     not an effect of the muscle but a condition of the record, which a
     ``# environment:`` header gives its own heat-loss scale (conditions.py).
     """
-    words = ' or '.join(effects) if effects else 'an effect the model lacks'
+    words = (' or '.join(effects) if effects
+             else 'an effect the model lacks (no catalogue effect moves it that way)')
     steady = tau_z is not None and abs(tau_z) < TAU_STEADY_Z and tau_determined
     if name == 'heat_loss' and z > 0.0 and not steady:
         words += (', or more air flow than the description assumes (a draught, a fan: '

@@ -201,6 +201,10 @@ def second_opinions(nominal, calibrate_with, effects, values, extendeds, rounds,
                                                             found_text(taken)),)
         elif adequate and cal.findings():  # adequate only by leaving the description
             judgement = judgement[:2] + ('unexplained', unexplained_findings(cal))
+    elif joint is None and judgement[2] == 'adequate' and cal is not None and cal.findings():
+        # findings that stand for no catalogue effect (a value moved the way no effect
+        # moves it, G82): adequate only by leaving the description, and nothing to test
+        judgement = judgement[:2] + ('unexplained', unexplained_findings(cal))
     if (judgement[2] == 'adequate' and not effects and cal is not None
             and one_load
             and predictable_below_floor(nominal.stats, nominal.whole_stats)):

@@ -13,9 +13,11 @@ calibrated jointly with the nominal parameters (joint.joint_calibrations: the
 description's priors on the nominal values, a nearly flat one on the effect's),
 and it **explains the finding** when
 
-1. the values whose findings name it return within SHIFT_Z prior spreads, not
-   jointly beyond JOINT_Z either (physical_priors.jointly_shifted), and within
-   their physical limits (a value past them counts as a finding here);
+1. every value found shifted returns within SHIFT_Z prior spreads, not only those
+   whose findings name it (a value it cannot move that way, left shifted, is not
+   explained by it), none jointly beyond JOINT_Z either
+   (physical_priors.jointly_shifted), and all within their physical limits (a value
+   past them counts as a finding here);
 2. the calibration's objective, data (on the nominal calibration's channel scales
    and effective sample count) plus priors, falls by more than k ln n_eff
    (k the effect's parameters, n_eff the calibration's effective samples: BIC);
@@ -61,7 +63,7 @@ class FindingTest:
     fit: object  # joint.JointFit
     fall: float  # fall of the calibration objective, penalty k ln n_eff subtracted (-)
     deviance: float  # held-out deviance gain D over the calibrated nominal (-)
-    returned: bool  # the values whose findings name it are back within SHIFT_Z spreads
+    returned: bool  # every value found shifted is back within SHIFT_Z spreads
     passes: bool  # all four conditions of the module docstring
     names: tuple = ()  # the calibration names whose findings name this effect
     #: penalised held-out gain over the nominal model the description admits, when
@@ -124,9 +126,11 @@ def weigh_finding_effect(fit, cal, problems, nominals):
     nominal model's record-rate simulations.
     """
     joint = fit.calibration
-    names = [n for n, _, effects in cal.findings(implausible=True)
-             if set(fit.effects) & set(effects)]
-    returned = _returned(joint, names)
+    found = cal.findings(implausible=True)
+    names = [n for n, _, effects in found if set(fit.effects) & set(effects)]
+    # every finding must return, not only those naming the effect: a value the effect
+    # cannot move that way, left beyond the description, is not explained by it (G82)
+    returned = _returned(joint, [n for n, _, _ in found])
     ref = cal.report
     penalty = fit.n_params * math.log(max(ref.n_effective, math.e))
     fall = (ref.data_cost() + ref.prior_cost
@@ -291,14 +295,23 @@ def found_text(test):
 
 
 def unexplained_findings(cal):
-    """Return the verdict sentence of findings no catalogue effect explained (``cal``'s)."""
-    shifted = ', '.join(f'{n} {z:+.1f} prior spreads' for n, z, _ in cal.findings())
+    """Return the verdict sentence of findings no catalogue effect explained (``cal``'s).
+
+    A finding no catalogue effect can stand for (a value moved the way no effect moves
+    it, physical_priors.stands_for) is said as such.
+    """
+    found = cal.findings()
+    shifted = ', '.join(f'{n} {z:+.1f} prior spreads' for n, z, _ in found)
+    none = [n for n, _, effects in found if not effects]
+    why = ('none of the catalogue effects they can stand for explains the move'
+           if len(none) < len(found) else 'no catalogue effect moves them that way')
+    if none and len(none) < len(found):
+        why += f' ({", ".join(none)}: no catalogue effect moves it that way)'
     return ('the calibrated nominal model leaves no structure, but only with values moved '
             f'beyond the uncertainty the description states ({shifted}; a finding is '
             f'beyond {SHIFT_Z:g}, or beyond {JOINT_Z:g} with others as unlikely together), '
-            'and none of the catalogue effects they can stand for explains the move: the '
-            'muscle differs from its description there, or an effect outside the catalogue '
-            'acts')
+            f'and {why}: the muscle differs from its description there, or an effect '
+            'outside the catalogue acts')
 
 
 def findings_rival(calibrate_with, problems, nominals, cal, candidates, found, sims, added):

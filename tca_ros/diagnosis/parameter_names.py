@@ -101,7 +101,7 @@ def plausibility_lines(cal):
             continue
         row = next(r for r in rows if r.name == name)
         why = (finding_causes_of(cal, name, z, effects) if effects
-               else 'a cause outside the catalogue')
+               else 'a cause outside the catalogue (no catalogue effect moves it that way)')
         lines.append(f'finding: {name} moved {z:+.1f} prior spreads from the description '
                      f'({row.prior:.4g} -> {row.value:.4g} {row.unit}): the muscle differs '
                      f'there, or the calibration absorbed an effect: {why}')
