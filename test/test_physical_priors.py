@@ -266,6 +266,12 @@ def test_a_finding_stands_for_the_effects_that_move_its_value_its_way_only():
     assert stands_for('delivered_power_ratio', 2.2) == ()
     assert set(stands_for('heat_capacity', -2.2)) == {'radiation', 'nonlinear_convection'}
     assert 'ambient_offset' in stands_for('expansion_zero_temperature', -2.2)
+    # a finding that stands for nothing says so, and `calibrate` sends nobody to test it
+    from tca_ros.calibration.physical_priors import finding_causes
+    said = finding_causes('stiffness_scale', 3.4, stands_for('stiffness_scale', 3.4))
+    assert 'no catalogue effect moves it that way' in said
+    assert finding_causes('stiffness_scale', -3.4, stands_for('stiffness_scale', -3.4)) \
+        == 'modulus_softening or creep'
 
 
 def test_a_room_offset_moves_the_stroke_per_kelvin_as_the_table_says():

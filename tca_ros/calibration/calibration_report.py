@@ -142,8 +142,8 @@ def format_plausibility(cal):
             continue
         lines.append(f'finding: {name} moved z = {z:+.1f} prior spreads from the description '
                      '(beyond its stated uncertainty): the muscle differs there, or '
-                     + finding_causes_of(cal, name, z, effects)
-                     + ' stands in (`tca_sim diagnose` tests the effects)')
+                     + finding_causes_of(cal, name, z, effects) + ' stands in'
+                     + (' (`tca_sim diagnose` tests the effects)' if effects else ''))
     bad = [r.name for r in rows if r.implausible]
     if bad:
         lines.append('warning: implausible ' + ', '.join(bad) + ': outside the physical limits '
