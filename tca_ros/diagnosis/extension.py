@@ -186,7 +186,6 @@ def second_opinions(nominal, calibrate_with, effects, values, extendeds, rounds,
         # the moved values leave nothing structured (adequate) or not (unexplained: a
         # power loss predicts the held-out part as the shifted heat loss does, so the
         # joint stage's held-out rule cannot take it; the priors can)
-        adequate = judgement[2] == 'adequate'
         taken, said = explain_findings(calibrate_with, nominal.problems, nominal.sims, cal,
                                        nominal.candidates)
         notes.extend(said)
@@ -199,11 +198,10 @@ def second_opinions(nominal, calibrate_with, effects, values, extendeds, rounds,
                 found = True
                 judgement = judgement[:3] + (found_sentence(effects, judgement[1],
                                                             found_text(taken)),)
-        elif adequate and cal.findings():  # adequate only by leaving the description
-            judgement = judgement[:2] + ('unexplained', unexplained_findings(cal))
-    elif joint is None and judgement[2] == 'adequate' and cal is not None and cal.findings():
-        # findings that stand for no catalogue effect (a value moved the way no effect
-        # moves it, G82): adequate only by leaving the description, and nothing to test
+    if joint is None and judgement[2] == 'adequate' and cal is not None and cal.findings():
+        # adequate only by leaving the description: no effect the findings stand for
+        # explains them, or they stand for none (a value moved the way no effect moves
+        # it, G82)
         judgement = judgement[:2] + ('unexplained', unexplained_findings(cal))
     if (judgement[2] == 'adequate' and not effects and cal is not None
             and one_load
