@@ -184,6 +184,8 @@ def plausibility(parameters, values, params, aside=()):
     return rows
 
 
+#: what a finding that stands for no catalogue effect is said to be (G82)
+NO_EFFECT_MOVES_IT = 'no catalogue effect moves it that way'
 #: catalogue effects (model/effects.py) a shift of each calibrated value can stand for,
 #: by the shift's direction (+1 up, -1 down): an effect moves a value its own way only,
 #: and a shift no effect makes stands for none (decisions G82)
@@ -201,8 +203,8 @@ STANDS_FOR = {
     'damping': {1: ('second_thermal_lag', 'sensor_lag', 'friction', 'hysteresis')},
     'actuation_lag': {1: ('second_thermal_lag', 'sensor_lag', 'dead_time')},
     # eq. (2) reads T - T_z: a room offset by d moves the stroke as T_z moved by -d
-    'expansion_zero_temperature': {1: ('modulus_softening', 'hysteresis', 'ambient_offset'),
-                                   -1: ('modulus_softening', 'hysteresis', 'ambient_offset')},
+    'expansion_zero_temperature': dict.fromkeys(
+        (1, -1), ('modulus_softening', 'hysteresis', 'ambient_offset')),
     # a stroke that stops growing when hot: the coil softening under its load
     'expansion_plateau_temperature': {-1: ('modulus_softening',)},
 }
@@ -247,7 +249,7 @@ def finding_causes(name, z, effects, tau_z=None, tau_determined=True):
     ``# environment:`` header gives its own heat-loss scale (conditions.py).
     """
     words = (' or '.join(effects) if effects
-             else 'an effect the model lacks (no catalogue effect moves it that way)')
+             else f'an effect the model lacks ({NO_EFFECT_MOVES_IT})')
     steady = tau_z is not None and abs(tau_z) < TAU_STEADY_Z and tau_determined
     if name == 'heat_loss' and z > 0.0 and not steady:
         words += (', or more air flow than the description assumes (a draught, a fan: '

@@ -48,7 +48,7 @@ from dataclasses import dataclass
 import math
 
 from tca_ros.calibration.calibration import ROOM
-from tca_ros.calibration.physical_priors import JOINT_Z, SHIFT_Z
+from tca_ros.calibration.physical_priors import JOINT_Z, NO_EFFECT_MOVES_IT, SHIFT_Z
 from tca_ros.diagnosis.joint import changed_values, DECISIVE_DEVIANCE, joint_calibrations, \
     lowers_heldout_rms
 from tca_ros.diagnosis.joint_groups import calibratable
@@ -306,7 +306,7 @@ def unexplained_findings(cal):
     why = ('none of the catalogue effects they can stand for explains the move'
            if len(none) < len(found) else 'no catalogue effect moves them that way')
     if none and len(none) < len(found):
-        why += f' ({", ".join(none)}: no catalogue effect moves it that way)'
+        why += f' ({", ".join(none)}: {NO_EFFECT_MOVES_IT})'
     return ('the calibrated nominal model leaves no structure, but only with values moved '
             f'beyond the uncertainty the description states ({shifted}; a finding is '
             f'beyond {SHIFT_Z:g}, or beyond {JOINT_Z:g} with others as unlikely together), '

@@ -22,7 +22,7 @@ import math
 
 from tca_ros.calibration.calibration import ROOM
 from tca_ros.calibration.calibration_report import room_finding_line
-from tca_ros.calibration.physical_priors import finding_causes_of
+from tca_ros.calibration.physical_priors import finding_causes_of, NO_EFFECT_MOVES_IT
 from tca_ros.model.thermal import fiber_mass, heat_capacity, thermal_conductance
 
 #: params-file entry -> (calibration name, unit); the value converts by :func:`nominal_value`
@@ -101,7 +101,7 @@ def plausibility_lines(cal):
             continue
         row = next(r for r in rows if r.name == name)
         why = (finding_causes_of(cal, name, z, effects) if effects
-               else 'a cause outside the catalogue (no catalogue effect moves it that way)')
+               else f'a cause outside the catalogue ({NO_EFFECT_MOVES_IT})')
         lines.append(f'finding: {name} moved {z:+.1f} prior spreads from the description '
                      f'({row.prior:.4g} -> {row.value:.4g} {row.unit}): the muscle differs '
                      f'there, or the calibration absorbed an effect: {why}')
