@@ -274,6 +274,19 @@ def test_a_value_moved_the_way_no_effect_moves_it_names_nothing_and_is_said(tmp_
     assert not [n for n in result.notes if 'calibrated jointly' in n], result.notes
 
 
+def test_a_joint_fit_that_undoes_its_own_effect_is_not_named(tmp_path):
+    # seed 9852 of the fourth sample: a sensor nonlinearity (outside the catalogue) on one
+    # load, cst plant at 2 Hz. The search leaves structure; a softening calibrated jointly
+    # explains the record only with the actuation gain +6.4 spreads up, where a softening
+    # lowers it: fitted larger than the record asks, its excess taken back by the gain. It
+    # was named; it is set aside and said, and the record is `unexplained` (G83)
+    result, _ = benchmark_case(tmp_path, 9852, ['sensor_nonlinearity'])
+    assert result.effects == [] and result.verdict == 'unexplained', result.notes
+    (note,) = [n for n in result.notes if 'makes the other way' in n]
+    assert note.startswith('modulus_softening, calibrated jointly') and 'actuation_gain +' in note
+    assert 'is not named' in note
+
+
 def test_an_effect_that_leaves_a_finding_it_cannot_make_standing_explains_nothing(tmp_path):
     # seed 9456 of the second sample: a sensor nonlinearity (outside the catalogue) on
     # one load, a cst plant at 5 Hz with a thermometer. The calibration takes the gain

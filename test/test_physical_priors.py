@@ -274,6 +274,38 @@ def test_a_finding_stands_for_the_effects_that_move_its_value_its_way_only():
         == 'modulus_softening or creep'
 
 
+def test_a_fit_that_moves_a_value_against_its_own_effect_undoes_it():
+    # G83: a softening lowers the gain and the stiffness; a fit of it that leaves the gain
+    # beyond the description upward has its signature undone. An ambient offset moves the
+    # gain either way with its sign, so it is against neither shift
+    from tca_ros.calibration.physical_priors import moves_the_other_way, undone_findings
+    assert 'modulus_softening' in moves_the_other_way('actuation_gain', 2.9)
+    assert 'ambient_offset' not in moves_the_other_way('actuation_gain', 2.9)
+    assert 'ambient_offset' not in moves_the_other_way('actuation_gain', -2.9)
+    assert moves_the_other_way('actuation_gain', -2.9) == ()
+    assert set(moves_the_other_way('stiffness_scale', 3.0)) == {'modulus_softening', 'creep'}
+    assert moves_the_other_way('expansion_zero_temperature', 3.0) == ()
+    assert moves_the_other_way('delivered_power_ratio', 2.5) == ('power_loss',)
+
+    class Fitted:  # a joint calibration's findings (Calibration.findings, time_constant_z)
+        def __init__(self, findings):
+            self._findings = findings
+
+        def findings(self):
+            return self._findings
+
+        def time_constant_z(self):
+            return 0.0
+
+    left = Fitted([('actuation_gain', 2.9, ('ambient_offset',)),
+                   ('stiffness_scale', -2.5, ('modulus_softening', 'creep'))])
+    assert undone_findings(left, ('modulus_softening',)) == [
+        ('actuation_gain', 2.9, ('modulus_softening',))]
+    assert undone_findings(left, ('ambient_offset',)) == []
+    assert undone_findings(left, ('creep', 'friction')) == []
+    assert undone_findings(Fitted([]), ('modulus_softening',)) == []
+
+
 def test_a_room_offset_moves_the_stroke_per_kelvin_as_the_table_says():
     # the physics behind the signs of G82: on the convex stroke-temperature relation of
     # eq. (2) a warmer room strokes more per kelvin, a colder one less; a power loss and

@@ -239,6 +239,38 @@ def stands_for(name, z, tau_z=None):
     return STANDS_FOR.get(name, {}).get(sign, ())
 
 
+def moves_the_other_way(name, z, tau_z=None):
+    """Return the catalogue effects that move calibrated ``name`` against a shift of ``z`` spreads.
+
+    Those :func:`stands_for` gives for the opposite shift and not for this one (an
+    ambient offset moves the actuation gain either way with its sign, so it is
+    against neither). A fit of such an effect that still needs the value shifted
+    this way has its effect's own signature undone by the nominal value (decisions
+    G83).
+    """
+    return tuple(e for e in stands_for(name, -z, tau_z) if e not in stands_for(name, z, tau_z))
+
+
+def undone_findings(cal, effects):
+    """Return [(name, z, effects)] of Calibration ``cal``'s findings that ``effects`` move against.
+
+    ``cal``: a calibration with the catalogue ``effects`` fitted jointly with the
+    nominal parameters; each finding it leaves (Calibration.findings) whose value
+    one of those effects moves the other way (:func:`moves_the_other_way`), with
+    those effects. Such a fit explains the records only with its effect's own
+    signature undone: fitted larger than the records ask, and a nominal value moved
+    past its description to take the excess back (a softening fitted where a sensor
+    reads nonlinearly, the actuation gain +2.9 spreads up: decisions G83).
+    """
+    tau_z = cal.time_constant_z()
+    out = []
+    for name, z, _ in cal.findings():
+        against = tuple(e for e in moves_the_other_way(name, z, tau_z) if e in effects)
+        if against:
+            out.append((name, z, against))
+    return out
+
+
 def finding_causes(name, z, effects, tau_z=None, tau_determined=True):
     """Return the words naming what a finding of ``name`` (shifted ``z`` spreads) stands for.
 

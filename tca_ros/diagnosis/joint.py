@@ -26,10 +26,9 @@ from typing import NamedTuple
 
 from tca_ros.calibration.candidates import contradicted_by_measurement, parameters_at_bounds, \
     twin_shift
-from tca_ros.calibration.physical_priors import prior_spreads, SHIFT_Z
+from tca_ros.calibration.physical_priors import prior_spreads, SHIFT_Z, undone_findings
 from tca_ros.diagnosis.joint_groups import joint_order, pair_order
-from tca_ros.diagnosis.rivals import DECISIVE_DEVIANCE, rival_experiment_notes, \
-    unresolved_note, unresolved_rivals
+from tca_ros.diagnosis.rivals import DECISIVE_DEVIANCE, unresolved_rivals
 from tca_ros.diagnosis.search import MIN_GAIN_PERCENT
 from tca_ros.diagnosis.verdict import channel_stats, heldout_gain_over, needs_explaining, \
     pooled_heldout_rmse
@@ -64,14 +63,17 @@ class JointFit:
     #: (name, value, what) of its values a measurement refutes
     #: (candidates.contradicted_by_measurement)
     refuted: list = field(default_factory=list)
+    #: (name, z, effects) of the findings it leaves that its own effects move the
+    #: other way (physical_priors.undone_findings)
+    undone: list = field(default_factory=list)
 
     def __post_init__(self):  # noqa: D105 -- a single effect names itself
         self.effects = tuple(self.effects) or (self.name,)
 
     @property
     def barred(self):
-        """Return True when a value is at a bound or refuted: the fit is taken nowhere."""
-        return bool(self.pinned or self.refuted)
+        """Return True when a value is at a bound, refuted or undone: taken nowhere (G83)."""
+        return bool(self.pinned or self.refuted or self.undone)
 
     @property
     def claimed(self):
@@ -162,16 +164,20 @@ def joint_calibrations(calibrate_with, problems, nominals, cal, candidates, grou
                    contradicted_by_measurement(list(names), values, candidates)]
         admitted = admitted_effects(names, joint.params, cal.start, spreads,
                                     'temperature' in problems[0].channels)
+        # a value its own effect moves the other way, left beyond the description (G83)
+        undone = undone_findings(joint, names)
         confirmed = None
         whole = getattr(calibrate_with, 'whole', None)
         if (needs_explaining(stats) and criterion > DECISIVE_DEVIANCE and whole is not None
-                and not pinned and not refuted):  # a barred fit is taken nowhere
+                and not pinned and not refuted):  # a barred fit is taken nowhere (an
+            # undone one is confirmed, so the report can say what it set aside)
             confirmed = confirm_on_whole(whole, problems, cal, fitted + own, joint)
         out.append(JointFit(
             name=' + '.join(names), values=values, n_params=len(own), sims=sims,
             criterion=criterion, explained=not needs_explaining(stats) or bool(confirmed),
             pinned=pinned, refuted=refuted, effects=names, calibration=joint,
-            confirmed=(confirmed, criterion) if confirmed else None, admitted=admitted))
+            confirmed=(confirmed, criterion) if confirmed else None, admitted=admitted,
+            undone=undone))
     return out
 
 
@@ -238,7 +244,8 @@ def best_joint(fits, problems, nominals, nominal_rmse):
     """Return (the JointFit that explains the data best or None, the others that also do).
 
     Taken only when it beats the calibrated nominal by the search's rule, leaves
-    no structure, has no parameter at the end of its range and claims an effect
+    no structure, is not barred (no parameter at the end of its range, none a
+    measurement refutes, no value its own effect moves the other way: G83) and claims an effect
     the description does not admit (JointFit.claimed: a pair of a dead time and an
     offset within the stated room names the dead time, decisions G66; a fit the
     description admits in full names nothing, :func:`described_lead`); among
@@ -265,8 +272,10 @@ def joint_extension(calibrate_with, problems, nominals, cal, candidates, rounds,
     unresolved_rivals lists the family members it set apart only by the
     structure test. When a fit the description admits explains the records
     decisively best (:func:`described_lead`), nothing is taken and the outcome
-    holds it. Arguments as joint_calibrations and best_joint; ``rounds`` are the
-    search's SearchRounds.
+    holds it. A fit that leaves a value its own effect moves the other way
+    (JointFit.undone, G83) is taken nowhere; the outcome lists those that pass
+    every other rule, for the report. Arguments as joint_calibrations and
+    best_joint; ``rounds`` are the search's SearchRounds.
     """
     fits = joint_calibrations(calibrate_with, problems, nominals, cal, candidates,
                               [(c,) for c in joint_order(rounds, candidates, extra=extra)])
@@ -286,10 +295,14 @@ def joint_extension(calibrate_with, problems, nominals, cal, candidates, rounds,
     def lowers(fit):
         return lowers_heldout_rms(problems, fit.sims, nominal_rmse)
 
+    # what best_joint would have taken but for a value its effects move the other way
+    undone = sorted((f for f in every if f.undone and not (f.pinned or f.refuted)
+                     and f.explained and f.claimed and f.criterion > 0.0 and lowers(f)),
+                    key=lambda f: f.criterion, reverse=True)
     described = described_lead(every, joint, lowers)
     if described is not None:
-        return JointOutcome(None, [], [], described)
-    return JointOutcome(joint, rivals, unresolved_rivals(joint, fits, lowers), None)
+        return JointOutcome(None, [], [], described, undone)
+    return JointOutcome(joint, rivals, unresolved_rivals(joint, fits, lowers), None, undone)
 
 
 class JointOutcome(NamedTuple):
@@ -301,6 +314,9 @@ class JointOutcome(NamedTuple):
     #: a fit the description admits that explains the records decisively best
     #: (:func:`described_lead`): then nothing is taken
     described: object = None
+    #: the fits best_joint would have taken but for a value their effects move the
+    #: other way (JointFit.undone, G83), best first
+    undone: list = ()
 
 
 def described_lead(fits, taken, lowers_rms):
@@ -366,42 +382,3 @@ def leaves_finding(fit):
     not the one described: a partner may be what the shift stands for (G53).
     """
     return fit.calibration is not None and bool(fit.calibration.findings())
-
-
-def described_note(fit):
-    """Return the note on a fit the description admits that explained the records best."""
-    sizes = ', '.join(f'{name.split(".")[-1]} = {value:.3g}' for name, value in fit.values.items()
-                      if name.startswith('effects.'))
-    moved = fit.calibration.findings() if fit.calibration is not None else []
-    beyond = ('; its calibration still moves ' + ', '.join(
-        f'{name} {z:+.1f} prior spreads' for name, z, _ in moved)
-        + ' beyond the description, which no effect named here explains' if moved else '')
-    return (f'{fit.name} ({sizes}), calibrated jointly with all the nominal parameters, '
-            'explains the records decisively better than any effect (penalised held-out '
-            f'gain {fit.criterion:.1f}), and its size is {WITHIN_DESCRIPTION}: the muscle '
-            f'is as described there, and no effect is named{beyond} '
-            '(docs/diagnosis_method.md, "Joint calibration")')
-
-
-def joint_notes(joint, rivals, searched, near=()):
-    """Return the report's notes on a JointFit taken over the search's ``searched`` effects.
-
-    ``rivals``: the others that explain too (best_joint); ``near``: those only the
-    structure test set apart (unresolved_rivals). Each is said with the experiment
-    that would separate it from the one taken (rivals.py).
-    """
-    left = f' with {" + ".join(searched)}' if searched else ''
-    pair = len(joint.effects) > 1
-    notes = [f'the search left the records unexplained{left}; {joint.name}, calibrated '
-             'jointly with all the nominal parameters on the training part, '
-             f'{"explain" if pair else "explains"} it (docs/diagnosis_method.md, '
-             f'"Joint calibration": {"pairs" if pair else "singles"})']
-    if joint.admitted:
-        notes.append(f'{" + ".join(joint.admitted)} of that fit is {WITHIN_DESCRIPTION}: the '
-                     'muscle as described, not named')
-    if rivals:
-        notes.append('also explained, calibrated jointly: ' + ', '.join(
-            f'{f.name} (penalised held-out gain {f.criterion:.1f} against '
-            f'{joint.criterion:.1f})' for f in rivals)
-            + '; these records tell them apart only by that gain')
-    return notes + unresolved_note(joint, near) + rival_experiment_notes(joint, [*rivals, *near])

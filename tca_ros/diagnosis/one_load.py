@@ -118,6 +118,7 @@ def softening_on_one_load(calibrate_with, problems, nominals, cal, candidates):
     else:
         notes = [f'{evidence}: not decisive (a gain over {DECISIVE_DEVIANCE:g}, a held-out '
                  f'RMS {MIN_GAIN_PERCENT:g} % lower, no structure, no parameter at a bound '
+                 'or value it moves the other way beyond the description (G83) '
                  f'and the calibrated gain moved down by over {GAIN_DOWN_Z:g} prior spread '
                  'are needed to name it); the records do not tell it from the calibrated gain']
     experiment = _experiment(cal, fit)

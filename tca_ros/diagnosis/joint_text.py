@@ -1,0 +1,67 @@
+"""What a diagnosis report says of the joint stage (joint.py).
+
+The fit taken, its rivals, the muscle as described, and the fits set aside.
+
+Each sentence names the fit and the figure it rests on (docs/diagnosis_method.md,
+"Joint calibration").
+"""
+from tca_ros.diagnosis.joint import WITHIN_DESCRIPTION
+from tca_ros.diagnosis.rivals import rival_experiment_notes, unresolved_note
+
+
+def described_note(fit):
+    """Return the note on a fit the description admits that explained the records best."""
+    sizes = ', '.join(f'{name.split(".")[-1]} = {value:.3g}' for name, value in fit.values.items()
+                      if name.startswith('effects.'))
+    moved = fit.calibration.findings() if fit.calibration is not None else []
+    beyond = ('; its calibration still moves ' + ', '.join(
+        f'{name} {z:+.1f} prior spreads' for name, z, _ in moved)
+        + ' beyond the description, which no effect named here explains' if moved else '')
+    return (f'{fit.name} ({sizes}), calibrated jointly with all the nominal parameters, '
+            'explains the records decisively better than any effect (penalised held-out '
+            f'gain {fit.criterion:.1f}), and its size is {WITHIN_DESCRIPTION}: the muscle '
+            f'is as described there, and no effect is named{beyond} '
+            '(docs/diagnosis_method.md, "Joint calibration")')
+
+
+def joint_notes(joint, rivals, searched, near=()):
+    """Return the report's notes on a JointFit taken over the search's ``searched`` effects.
+
+    ``rivals``: the others that explain too (best_joint); ``near``: those only the
+    structure test set apart (unresolved_rivals). Each is said with the experiment
+    that would separate it from the one taken (rivals.py).
+    """
+    left = f' with {" + ".join(searched)}' if searched else ''
+    pair = len(joint.effects) > 1
+    notes = [f'the search left the records unexplained{left}; {joint.name}, calibrated '
+             'jointly with all the nominal parameters on the training part, '
+             f'{"explain" if pair else "explains"} it (docs/diagnosis_method.md, '
+             f'"Joint calibration": {"pairs" if pair else "singles"})']
+    if joint.admitted:
+        notes.append(f'{" + ".join(joint.admitted)} of that fit is {WITHIN_DESCRIPTION}: the '
+                     'muscle as described, not named')
+    if rivals:
+        notes.append('also explained, calibrated jointly: ' + ', '.join(
+            f'{f.name} (penalised held-out gain {f.criterion:.1f} against '
+            f'{joint.criterion:.1f})' for f in rivals)
+            + '; these records tell them apart only by that gain')
+    return notes + unresolved_note(joint, near) + rival_experiment_notes(joint, [*rivals, *near])
+
+
+def undone_note(fits):
+    """Return the note on JointFits set aside for undoing their own effect (G83), or None.
+
+    ``fits``: JointOutcome.undone, best first: each explained the records, but only
+    with a value its own effect moves the other way left beyond the description.
+    """
+    if not fits:
+        return None
+    return '; '.join(
+        f'{f.name}, calibrated jointly with all the nominal parameters, explains the records '
+        f'(penalised held-out gain {f.criterion:.1f}) only with '
+        + ', '.join(f'{name} {z:+.1f} prior spreads' for name, z, _ in f.undone)
+        + ', a shift ' + ' and '.join(sorted({e for _, _, es in f.undone for e in es}))
+        + ' makes the other way' for f in fits) + (
+        ': the effect fitted larger than the records ask, its excess taken back by a '
+        'nominal value, is not their cause and is not named (docs/diagnosis_method.md, '
+        '"Joint calibration": undone)')
