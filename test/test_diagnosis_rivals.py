@@ -230,7 +230,9 @@ def test_a_rival_the_thermometer_refutes_is_not_taken_and_the_report_says_why(mo
 
     def calibrate_with(fit, start_values, like):
         moved = described.with_values(**{n: fitted[n] for n in fit if n in fitted})
-        return SimpleNamespace(params=moved, report=None), None, ''
+        # a joint calibration that leaves no finding (G83 asks for them)
+        return SimpleNamespace(params=moved, report=None, findings=lambda: [],
+                               time_constant_z=lambda: None), None, ''
 
     cal = SimpleNamespace(report=SimpleNamespace(estimates={}, values={}), start=described,
                           params=described)
