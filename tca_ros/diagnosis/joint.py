@@ -252,12 +252,24 @@ def best_joint(fits, problems, nominals, nominal_rmse):
     those, the largest penalised held-out gain. The others that pass too are returned, best
     first, so the report can say the records do not tell them apart.
     """
-    # f.criterion is heldout_gain_over of f.sims: beats_nominal without computing it again
-    ok = [f for f in fits if f.explained and not f.barred and f.claimed
-          and f.criterion > 0.0
-          and lowers_heldout_rms(problems, f.sims, nominal_rmse)]
+    def lowers(fit):
+        return lowers_heldout_rms(problems, fit.sims, nominal_rmse)
+
+    ok = [f for f in fits if not f.barred and f.claimed and explains(f, lowers)]
     ok.sort(key=lambda f: f.criterion, reverse=True)
     return (ok[0], ok[1:]) if ok else (None, [])
+
+
+def explains(fit, lowers_rms):
+    """Return True when a JointFit explains the records and beats the calibrated nominal.
+
+    It leaves no structure (``explained``) and passes the search's acceptance:
+    a positive penalised held-out gain (``criterion`` is heldout_gain_over of its
+    sims: beats_nominal without computing it again) and ``lowers_rms(fit)``
+    (:func:`lowers_heldout_rms` against the nominal). Whether it is barred, and what
+    it claims, each caller asks.
+    """
+    return fit.explained and fit.criterion > 0.0 and lowers_rms(fit)
 
 
 def joint_extension(calibrate_with, problems, nominals, cal, candidates, rounds, nominal_rmse,
@@ -297,7 +309,7 @@ def joint_extension(calibrate_with, problems, nominals, cal, candidates, rounds,
 
     # what best_joint would have taken but for a value its effects move the other way
     undone = sorted((f for f in every if f.undone and not (f.pinned or f.refuted)
-                     and f.explained and f.claimed and f.criterion > 0.0 and lowers(f)),
+                     and f.claimed and explains(f, lowers)),
                     key=lambda f: f.criterion, reverse=True)
     described = described_lead(every, joint, lowers)
     if described is not None:
@@ -331,8 +343,8 @@ def described_lead(fits, taken, lowers_rms):
     named (a 7.1 K offset where T_z is stated to 20 K, gain 274, against a 1.1 mN
     friction at 17.3 on a two-load sensor nonlinearity: decisions G66).
     """
-    ok = [f for f in fits if set(f.admitted) == set(f.effects) and f.explained and not f.barred
-          and f.criterion > 0.0 and lowers_rms(f)]
+    ok = [f for f in fits if set(f.admitted) == set(f.effects) and not f.barred
+          and explains(f, lowers_rms)]
     if not ok:
         return None
     best = max(ok, key=lambda f: f.criterion)
