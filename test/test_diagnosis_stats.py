@@ -510,7 +510,7 @@ def test_what_the_description_admits_and_explains_best_names_nothing():
 
 
 def test_the_muscle_as_described_says_the_values_its_fit_still_moves():
-    # joint.described_note: a fit the description admits may still move other values
+    # joint_text.described_note: a fit the description admits may still move other values
     # beyond their stated spreads (seed 9435 at two loads: a 2.92 K offset left three
     # values 6-7 spreads out); the note says so instead of calling it all the description
     from tca_ros.diagnosis.joint import JointFit
