@@ -49,13 +49,12 @@ def joint_notes(joint, rivals, searched, near=()):
 
 
 def undone_note(fits):
-    """Return the note on JointFits set aside for undoing their own effect (G83), or None.
+    """Return the note on JointFits set aside for undoing their own effect (G83).
 
-    ``fits``: JointOutcome.undone, best first: each explained the records, but only
-    with a value its own effect moves the other way left beyond the description.
+    ``fits``: JointOutcome.undone (not empty), best first: each explained the
+    records, but only with a value its own effect moves the other way left beyond
+    the description.
     """
-    if not fits:
-        return None
     return '; '.join(
         f'{f.name}, calibrated jointly with all the nominal parameters, explains the records '
         f'(penalised held-out gain {f.criterion:.1f}) only with '
