@@ -130,3 +130,32 @@ def test_a_joint_fit_confirmed_on_the_whole_record_is_explained_only_when_that_i
                                    "record less each record's sensor drift, no channel of "
                                    'its residual is structured')
         assert 'penalised held-out gain 23.0' in sentence
+
+
+def _round(*scores, accepted=''):
+    from tca_ros.diagnosis.fit_result import CandidateScore, FitResult
+    from tca_ros.diagnosis.search import SearchRound
+    out = []
+    for name, score, criterion, significant in scores:
+        fit = FitResult(name=name, params={}, units={}, stderr={}, residual_rms=1.0,
+                        n_samples=100, success=True, message='')
+        out.append(CandidateScore(fit=fit, heldout_cost=score ** 2 * 100, heldout_score=score,
+                                  heldout_rmse={}, n_heldout=100, lag_one=0.0, refined=True,
+                                  criterion=criterion, significant=significant))
+    return SearchRound(base_effects=[], base_score=10.0, base_rmse={}, scores=out,
+                       accepted=accepted)
+
+
+def test_a_candidate_that_lowers_the_rms_but_is_not_taken_is_explained():
+    from tca_ros.diagnosis.verdict_text import not_taken_note
+    # creep lowers the RMS 69 % but its penalised gain is negative: the note gives both
+    note = not_taken_note([_round(('creep', 3.1, -75.4, False), ('friction', 9.0, -5.0, False))],
+                          1.0)
+    assert note.startswith('creep lowers the held-out RMS by 69 %') and '-75.4 (<= 0)' in note
+    # a positive gain held back by the 1 % rule on the drift-free RMS says that instead
+    note = not_taken_note([_round(('sensor_lag', 9.5, 3.0, False))], 1.0)
+    assert 'sensor_lag' in note and 'less than 1 % lower' in note
+    # nothing to say: a candidate was taken, none lowers the RMS 1 %, or the best is significant
+    assert not_taken_note([_round(('creep', 3.1, 50.0, True), accepted='creep')], 1.0) is None
+    assert not_taken_note([_round(('creep', 9.95, -1.0, False))], 1.0) is None
+    assert not_taken_note([], 1.0) is None

@@ -22,7 +22,9 @@ from tca_ros.diagnosis.joint import JOINT_NFEV
 from tca_ros.diagnosis.nominal import calibrate_training_part, candidates_of, DiagnosisError, \
     nominal_with_fallback, read_any, record_nominal, set_aside_drift_shifts
 from tca_ros.diagnosis.parameter_names import NOMINAL_NAMES
+from tca_ros.diagnosis.search import MIN_GAIN_PERCENT
 from tca_ros.diagnosis.verdict import gain, holds_one_load, needs_explaining, ONE_LOAD_NOTE
+from tca_ros.diagnosis.verdict_text import not_taken_note
 from tca_ros.records.data import DataError, record_config
 
 VERDICTS = ('explained', 'adequate', 'unexplained')
@@ -246,6 +248,9 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
     effects, values, extendeds, judgement, found = second_opinions(
         nominal, calibrate_with, effects, values, extendeds, rounds, notes)
     extended_rmse, extended_stats, verdict, explanation = judgement
+    unaccepted = None if effects else not_taken_note(rounds, MIN_GAIN_PERCENT)
+    if unaccepted:  # the candidate table shows its gain: say why it is not a finding
+        notes.append(unaccepted)
     if nominal.cal is None:  # a nominal not calibrated on these records: their environment?
         notes.extend(heat_loss_note(params, values, problem.recalibration))
     if holds_one_load(records) and (verdict != 'unexplained'

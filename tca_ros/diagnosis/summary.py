@@ -1,4 +1,5 @@
 """The one-screen stdout summary of a diagnosis (DiagnosisResult of identification.py)."""
+import math
 import os
 
 from tca_ros.calibration.calibration_report import prior_kinds
@@ -65,7 +66,8 @@ def format_summary(result):
             f'{c} {_format_rmse(c, s).strip()}' for c, s in result.sigma.items()),
         *nominal_lines(result),
         '',
-        'candidates, each alone vs nominal (held-out RMSE; gain; penalised test):',
+        'candidates, each alone vs nominal (held-out RMSE; gain; penalised held-out gain; '
+        'the temperature RMSE where measured):',
     ]
     base = result.rounds[0].base_rmse if result.rounds else result.nominal_rmse
     for i, s in enumerate(result.candidates, start=1):
@@ -75,7 +77,8 @@ def format_summary(result):
         mark = 'significant' if s.significant else ('' if s.refined else 'screened')
         disp = s.heldout_rmse['displacement']
         lines.append(f'  {i}. {s.name:<20s} {_format_rmse("displacement", disp)}'
-                     f' {gain(base["displacement"], disp):+7.1f} % {temp} {mark:<11s} {params}')
+                     f' {gain(base["displacement"], disp):+7.1f} % {_format_criterion(s)}'
+                     f' {temp} {mark:<11s} {params}')
     if result.rounds and result.rounds[0].restarted:
         lines.append(f'  the greedy path from the best single candidate ended with structure '
                      f'left; restarted from the runner-up {result.rounds[0].accepted}, whose '
@@ -117,6 +120,12 @@ def format_summary(result):
                      f'{result.extended_params_path}; {result.json_path}')
     lines.append(f'{result.n_simulations} simulations, {result.elapsed:.1f} s')
     return '\n'.join(lines)
+
+
+def _format_criterion(score):
+    """Return a candidate's penalised held-out gain D - k ln n (-), 'n/a' when none."""
+    crit = score.criterion
+    return f'{crit:+8.1f}' if math.isfinite(crit) else f'{"n/a":>8s}'
 
 
 def _is_effect(name):

@@ -108,7 +108,7 @@ def verdict_sentence(verdict, effects, stats, whole_stats=None):
                 f'candidate improves the held-out fit (whole record: '
                 f'{channels_text(whole_stats)}; held-out part: {held})')
     structured = [st.channel for st in stats.values() if st.structured]
-    what = f'after adding {added}' if effects else 'and no candidate helps'
+    what = f'after adding {added}' if effects else 'and no candidate passes the held-out test'
     caution = ('; the effects added improve the fit but do not explain the data, so do not '
                'read them as its cause') if effects else ''
     return (f'unexplained structure remains {what}: the held-out residual of '
@@ -144,3 +144,33 @@ def found_sentence(effects, stats, evidence):
     return (f'{" + ".join(effects)} found: {evidence}; unexplained structure remains beside '
             f'it: the held-out residual of {", ".join(structured)} is structured '
             f'({channels_text(stats)}), so something else acts too')
+
+
+def not_taken_note(rounds, min_gain_percent):
+    """Return the note on the first round's best unaccepted candidate, or None.
+
+    A reader of the candidate table sees a candidate lower the held-out RMS and
+    'effects found: none' below it: this says why it was not taken. ``rounds``:
+    the search's SearchRounds; the candidate is the first round's with the
+    lowest held-out score (noise-normalised RMS over the channels, -), taken when
+    that is at least ``min_gain_percent`` (%) below the round's base and the
+    candidate is not significant. None when no such candidate exists.
+    """
+    first = next((r for r in rounds if r is not None), None)
+    if first is None or first.accepted or not first.scores:
+        return None
+    best = min(first.scores, key=lambda s: s.heldout_score)
+    lower = 100.0 * (1.0 - best.heldout_score / first.base_score) if first.base_score else 0.0
+    if best.significant or lower < min_gain_percent or not best.fit.success:
+        return None
+    if best.criterion <= 0.0:
+        why = (f'its penalised held-out gain is {best.criterion:.1f} (<= 0): the test removes '
+               "from each residual a drift from the record's zero, which a sensor may have, "
+               'and weighs what remains by the noise model, and there what '
+               f'{best.name} leaves is no closer to noise than what the nominal model leaves')
+    else:
+        why = ("with each record's drift removed its held-out RMS is less than "
+               f'{min_gain_percent:g} % lower')
+    return (f'{best.name} lowers the held-out RMS by {lower:.0f} % (noise-normalised, all '
+            f'channels) but is not taken: {why} (docs/diagnosis_method.md, "Acceptance and '
+            'the search")')
