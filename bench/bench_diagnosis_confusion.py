@@ -50,7 +50,7 @@ import numpy as np
 from tca_ros.calibration import physical_priors
 from tca_ros.calibration.physical_priors import prior_spreads
 from tca_ros.diagnosis import diagnose
-from tca_ros.diagnosis.joint import admitted_effects
+from tca_ros.diagnosis.described import admitted_effects
 from tca_ros.params.files import dump_params, load_params
 from tca_ros.synthetic.descriptions import describe, TIGHTNESS
 from tca_ros.synthetic.realistic import conditions, OUTSIDE, realistic_case, \
@@ -147,7 +147,7 @@ def run_case(args):
 def admitted_by(hidden, truth, described, condition):
     """Return the hidden effects whose size the description ``described`` admits.
 
-    joint.admitted_effects on the truth, as the diagnosis reads a joint fit: a power
+    described.admitted_effects on the truth, as the diagnosis reads a joint fit: a power
     loss within 2 prior spreads of the stated delivered power, an ambient offset
     within 2 of the room's stated uncertainty (and, without a thermometer, T_z's), a
     radiation whose linearised loss keeps the heat loss within 2 of its stated spread.

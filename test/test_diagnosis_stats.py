@@ -310,7 +310,7 @@ def test_a_power_loss_the_described_delivered_power_admits_is_not_an_effect():
     import math
     from tca_ros.calibration.candidates import twin_shift
     from tca_ros.calibration.physical_priors import prior_spreads, SHIFT_Z
-    from tca_ros.diagnosis.joint import admitted_effects
+    from tca_ros.diagnosis.described import admitted_effects
     from tca_ros.params.files import load_params
     described = load_params('free_stroke').with_values(
         **{'uncertainty.delivered_power_ratio': 0.046})
@@ -333,6 +333,44 @@ def test_a_power_loss_the_described_delivered_power_admits_is_not_an_effect():
     assert twin_shift('creep', small, described, spreads) is None
     assert twin_shift('power_loss', small, described, {}) is None
     assert admitted_effects(('creep', 'dead_time'), small, described, spreads) == ()
+
+
+def test_a_rival_pays_for_the_described_value_it_moves():
+    # G84: an ambient offset is the stated room moved; its cost is z^2 in the room's
+    # spread (with T_z's beside it when no thermometer reads the room), on the scale of
+    # the penalised held-out gain; an effect with no described twin costs nothing
+    import math
+    from types import SimpleNamespace
+    from tca_ros.calibration.physical_priors import prior_spreads
+    from tca_ros.diagnosis.described import description_cost
+    from tca_ros.diagnosis.joint import best_joint, JointFit
+    from tca_ros.params.files import load_params
+    described = load_params('free_stroke').with_values(
+        **{'uncertainty.ambient_temperature': 1.0,
+           'uncertainty.expansion_zero_temperature': 2.0})
+    spreads = prior_spreads(described)
+    off = described.with_values(**{'effects.ambient_offset': -3.0})
+    assert description_cost(('ambient_offset',), off, described, spreads) == pytest.approx(9.0)
+    assert description_cost(('ambient_offset',), off, described, spreads,
+                            thermometer=False) == pytest.approx(9.0 / 5.0)
+    assert description_cost(('ambient_offset', 'creep'), off, described, spreads) == \
+        pytest.approx(9.0)
+    assert description_cost(('modulus_softening',), off, described, spreads) == 0.0
+    # best_joint ranks by the gain less that cost: the larger gain loses when it moves the room
+    fits = [JointFit(name='ambient_offset', values={}, n_params=1, sims=[], criterion=84.3,
+                     explained=True, pinned=[], cost=13.5),
+            JointFit(name='modulus_softening', values={}, n_params=1, sims=[],
+                     criterion=81.9, explained=True, pinned=[])]
+    problems = [SimpleNamespace(channels=('displacement',))]
+    import tca_ros.diagnosis.joint as joint
+    saved = joint.lowers_heldout_rms
+    joint.lowers_heldout_rms = lambda *args: True
+    try:
+        taken, rivals = best_joint(fits, problems, [], {})
+    finally:
+        joint.lowers_heldout_rms = saved
+    assert taken.name == 'modulus_softening' and [f.name for f in rivals] == ['ambient_offset']
+    assert math.isclose(rivals[0].weighed, 84.3 - 13.5)
 
 
 def test_a_search_member_within_the_stated_room_is_not_named_beside_another():

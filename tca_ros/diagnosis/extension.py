@@ -11,12 +11,12 @@ from dataclasses import dataclass
 
 from tca_ros.calibration.candidates import contradicted_by_measurement, parameters_at_bounds
 from tca_ros.calibration.physical_priors import prior_spreads
+from tca_ros.diagnosis.described import admitted_effects
 from tca_ros.diagnosis.effect_size import below_floor, below_floor_note
 from tca_ros.diagnosis.family_rivals import decisive_despite_structure, family_rivals
 from tca_ros.diagnosis.findings import explain_findings, finding_effects, findings_rival, \
     found_text, unexplained_findings
-from tca_ros.diagnosis.joint import admitted_effects, beats_nominal, joint_extension, \
-    WITHIN_DESCRIPTION
+from tca_ros.diagnosis.joint import beats_nominal, joint_extension, WITHIN_DESCRIPTION
 from tca_ros.diagnosis.joint_text import described_note, joint_notes, undone_note
 from tca_ros.diagnosis.one_load import gain_took_up_softening, predictable_below_floor, \
     RIVAL as ONE_LOAD_RIVAL, softening_on_one_load
@@ -270,7 +270,7 @@ def described_members(nominal, effects, values):
     """Return (effects, notes): the search's ``effects`` less those the description admits.
 
     ``values``: the extension's dotted values. A member whose size moves its twin no
-    more than SHIFT_Z prior spreads from the description (joint.admitted_effects: a
+    more than SHIFT_Z prior spreads from the description (described.admitted_effects: a
     power loss within the stated delivered power, an ambient offset within the
     stated room, a radiation or a convection exponent within the stated heat loss)
     is the described muscle's own slack, as in a joint fit (JointFit.claimed): kept

@@ -40,12 +40,24 @@ def joint_notes(joint, rivals, searched, near=()):
     if joint.admitted:
         notes.append(f'{" + ".join(joint.admitted)} of that fit is {WITHIN_DESCRIPTION}: the '
                      'muscle as described, not named')
-    if rivals:
+    if rivals and not any(f.cost for f in (joint, *rivals)):
         notes.append('also explained, calibrated jointly: ' + ', '.join(
             f'{f.name} (penalised held-out gain {f.criterion:.1f} against '
             f'{joint.criterion:.1f})' for f in rivals)
             + '; these records tell them apart only by that gain')
+    elif rivals:  # weighed with what each moves the described values by (G84)
+        notes.append('also explained, calibrated jointly: ' + ', '.join(
+            f'{f.name} ({_weighed(f)} against {_weighed(joint)})' for f in rivals)
+            + '; these records tell them apart only by that gain and by how far each moves '
+            'what the description states (a power loss the delivered power, an ambient offset '
+            'the room, radiation or convection the heat loss), z^2 in its prior spreads')
     return notes + unresolved_note(joint, near) + rival_experiment_notes(joint, [*rivals, *near])
+
+
+def _weighed(fit):
+    """Return 'penalised held-out gain G less z^2 C of the described values = W' (-)."""
+    return (f'penalised held-out gain {fit.criterion:.1f} less {fit.cost:.1f} for the '
+            f'described values it moves = {fit.weighed:.1f}')
 
 
 def undone_note(fits):
