@@ -5,6 +5,7 @@ from tca_ros.calibration.candidates import Candidate
 from tca_ros.diagnosis import family_rivals as rivals_module, joint
 from tca_ros.diagnosis.family_rivals import family_rivals
 from tca_ros.diagnosis.joint import DECISIVE_DEVIANCE, JointFit
+from tca_ros.diagnosis.joint_text import pinned_note
 
 
 def _candidate(name, dotted):
@@ -266,3 +267,37 @@ def test_a_rival_the_thermometer_refutes_is_not_taken_and_the_report_says_why(mo
     taken, _ = family_rivals(None, [problem], [None], cal, candidates,
                              'nonlinear_convection', {})
     assert taken is offset
+
+
+def test_an_explanation_at_the_end_of_its_range_is_set_aside_and_said(monkeypatch):
+    # Seed 9111 (radiation, rod plant at 5 Hz, no thermometer): radiation calibrated
+    # jointly explains the record (penalised held-out gain 42.0) only with the
+    # emissivity at 1, the end of its range, and nonlinear convection (46.3) is named.
+    # The report says why radiation is not among the rivals; an effect at the zero end
+    # of its range is absent, not pinned, and a fit that does not explain is not said
+    def calibration():
+        return SimpleNamespace(findings=lambda: [])
+
+    at_bound = JointFit(name='radiation', values={}, n_params=1, sims=['r'], criterion=42.0,
+                        explained=True, pinned=[('effects.emissivity', 1.0, 1.0)],
+                        calibration=calibration())
+    taken = JointFit(name='nonlinear_convection', values={}, n_params=1, sims=['c'],
+                     criterion=46.3, explained=True, pinned=[], calibration=calibration())
+    leaves = JointFit(name='sensor_lag', values={}, n_params=1, sims=['s'], criterion=50.0,
+                      explained=False, pinned=[('effects.sensor_lag', 3.0, 3.0)],
+                      calibration=calibration())
+    monkeypatch.setattr(joint, 'joint_order', lambda rounds, candidates, extra=(): [])
+    monkeypatch.setattr(joint, 'joint_calibrations', lambda *args, **kwargs: [
+        at_bound, taken, leaves])
+    monkeypatch.setattr(joint, 'lowers_heldout_rms', lambda problems, sims, rmse: True)
+    outcome = joint.joint_extension(None, [], [], None, CANDIDATES, [], {})
+    assert outcome.joint is taken and outcome.rivals == [] and outcome.pinned == [at_bound]
+    note = pinned_note(outcome.pinned)
+    assert note.startswith('radiation, calibrated jointly with all the nominal parameters, '
+                           'explains the records (penalised held-out gain 42.0) only with '
+                           'effects.emissivity = 1, the end of its physical range')
+    assert 'is not named' in note
+    unit = pinned_note([JointFit(name='sensor_lag', values={}, n_params=1, sims=[],
+                                 criterion=1.0, explained=True,
+                                 pinned=[('effects.sensor_lag', 3.0, 3.0)])])
+    assert 'effects.sensor_lag = 3 s, the end' in unit

@@ -17,7 +17,8 @@ from tca_ros.diagnosis.family_rivals import decisive_despite_structure, family_r
 from tca_ros.diagnosis.findings import explain_findings, finding_effects, findings_rival, \
     found_text, unexplained_findings
 from tca_ros.diagnosis.joint import beats_nominal, joint_extension, WITHIN_DESCRIPTION
-from tca_ros.diagnosis.joint_text import described_note, joint_notes, undone_note
+from tca_ros.diagnosis.joint_text import described_note, joint_notes, pinned_note, \
+    undone_note
 from tca_ros.diagnosis.one_load import gain_took_up_softening, predictable_below_floor, \
     RIVAL as ONE_LOAD_RIVAL, softening_on_one_load
 from tca_ros.diagnosis.search import MIN_GAIN_PERCENT, search_effects
@@ -167,11 +168,13 @@ def second_opinions(nominal, calibrate_with, effects, values, extendeds, rounds,
             # on one load a gain moved down may have taken up a softening: the search's
             # screen (a softening added on top of that gain) cannot see it (one_load.py)
             extra.append(ONE_LOAD_RIVAL)
-        joint, rivals, near, described, undone = joint_extension(
+        joint, rivals, near, described, undone, pinned = joint_extension(
             calibrate_with, nominal.problems, nominal.sims, cal, nominal.candidates, rounds,
             nominal.drift_free_rmse, extra=extra)
         if undone and (joint is None or undone[0].criterion > joint.criterion):
             notes.append(undone_note(undone))
+        if pinned:  # an explanation set aside: a rival the reader is told of either way
+            notes.append(pinned_note(pinned))
         if described is not None:  # the muscle as described explains it best: no finding
             notes.append(described_note(described))
             named_by_findings = []

@@ -279,8 +279,9 @@ def joint_extension(calibrate_with, problems, nominals, cal, candidates, rounds,
     decisively best (:func:`described_lead`), nothing is taken and the outcome
     holds it. A fit that leaves a value its own effect moves the other way
     (JointFit.undone, G83) is taken nowhere; the outcome lists those that pass
-    every other rule, for the report. Arguments as joint_calibrations and
-    best_joint; ``rounds`` are the search's SearchRounds.
+    every other rule, for the report, and so those that explain the records but
+    for a parameter at the end of its range (JointFit.pinned). Arguments as
+    joint_calibrations and best_joint; ``rounds`` are the search's SearchRounds.
     """
     fits = joint_calibrations(calibrate_with, problems, nominals, cal, candidates,
                               [(c,) for c in joint_order(rounds, candidates, extra=extra)])
@@ -300,14 +301,19 @@ def joint_extension(calibrate_with, problems, nominals, cal, candidates, rounds,
     def lowers(fit):
         return lowers_heldout_rms(problems, fit.sims, nominal_rmse)
 
-    # what best_joint would have taken but for a value its effects move the other way
+    # what best_joint would have taken but for a value its effects move the other way,
+    # and what explains the records but for a parameter at the end of its range
     undone = sorted((f for f in every if f.undone and not (f.pinned or f.refuted)
+                     and f.claimed and explains(f, lowers)),
+                    key=lambda f: f.criterion, reverse=True)
+    pinned = sorted((f for f in every if f.pinned and not (f.undone or f.refuted)
                      and f.claimed and explains(f, lowers)),
                     key=lambda f: f.criterion, reverse=True)
     described = described_lead(every, joint, lowers)
     if described is not None:
-        return JointOutcome(None, [], [], described, undone)
-    return JointOutcome(joint, rivals, unresolved_rivals(joint, fits, lowers), None, undone)
+        return JointOutcome(None, [], [], described, undone, pinned)
+    return JointOutcome(joint, rivals, unresolved_rivals(joint, fits, lowers), None, undone,
+                        pinned)
 
 
 class JointOutcome(NamedTuple):
@@ -322,6 +328,9 @@ class JointOutcome(NamedTuple):
     #: the fits best_joint would have taken but for a value their effects move the
     #: other way (JointFit.undone, G83), best first
     undone: list = ()
+    #: the fits that explain the records but for a parameter at the end of its
+    #: physical range (JointFit.pinned, G61), best first
+    pinned: list = ()
 
 
 def described_lead(fits, taken, lowers_rms):

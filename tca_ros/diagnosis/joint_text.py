@@ -7,6 +7,7 @@ Each sentence names the fit and the figure it rests on (docs/diagnosis_method.md
 """
 from tca_ros.diagnosis.joint import WITHIN_DESCRIPTION
 from tca_ros.diagnosis.rivals import rival_experiment_notes, unresolved_note
+from tca_ros.model.params_schema import SPECS
 
 
 def described_note(fit):
@@ -76,3 +77,27 @@ def undone_note(fits):
         ': the effect fitted larger than the records ask, its excess taken back by a '
         'nominal value, is not their cause and is not named (docs/diagnosis_method.md, '
         '"Joint calibration": undone)')
+
+
+def pinned_note(fits):
+    """Return the note on JointFits set aside for a parameter at the end of its range (G61).
+
+    ``fits``: JointOutcome.pinned (not empty), best first: each explained the
+    records and predicted the held-out part better than the nominal model, but
+    only with a parameter of its effect at the end of its physical range (an
+    emissivity of 1, a lag at its longest).
+    """
+    return '; '.join(
+        f'{f.name}, calibrated jointly with all the nominal parameters, explains the records '
+        f'(penalised held-out gain {f.criterion:.1f}) only with '
+        + ', '.join(f'{name} = {value:.4g}' + _unit(name) for name, value, _ in f.pinned)
+        for f in fits) + (
+        ', the end of its physical range: the records ask for more than the effect can be, '
+        'so it stands in for another cause and is not named (docs/diagnosis_method.md, '
+        '"Joint calibration")')
+
+
+def _unit(name):
+    """Return ' <unit>' of a dotted parameter name, or '' for a number without one."""
+    unit = SPECS[name].unit
+    return '' if unit in ('-', '') else f' {unit}'
