@@ -5,7 +5,7 @@ from tca_ros.calibration.candidates import Candidate
 from tca_ros.diagnosis import family_rivals as rivals_module, joint
 from tca_ros.diagnosis.family_rivals import family_rivals
 from tca_ros.diagnosis.joint import DECISIVE_DEVIANCE, JointFit
-from tca_ros.diagnosis.joint_text import pinned_note
+from tca_ros.diagnosis.joint_text import set_aside_note
 
 
 def _candidate(name, dotted):
@@ -243,6 +243,7 @@ def test_a_rival_the_thermometer_refutes_is_not_taken_and_the_report_says_why(mo
     monkeypatch.setattr(joint, 'heldout_gain_over', lambda problems, nominals, sims, k:
                         101.4 if 'effects.ambient_offset' in sims[0] else 66.6)
     monkeypatch.setattr(joint, 'channel_stats', lambda *args: {})
+    monkeypatch.setattr(joint, 'thermometer_refutes', lambda *args: [])
     monkeypatch.setattr(joint, 'training_misfit', lambda report, reference: 1.0)
     fits = joint_calibrations(calibrate_with, [problem], [None], cal, candidates,
                               [(c,) for c in candidates], gate=False)
@@ -269,12 +270,12 @@ def test_a_rival_the_thermometer_refutes_is_not_taken_and_the_report_says_why(mo
     assert taken is offset
 
 
-def test_an_explanation_at_the_end_of_its_range_is_set_aside_and_said(monkeypatch):
+def test_an_explanation_at_the_end_of_its_range_or_refuted_is_set_aside_and_said(monkeypatch):
     # Seed 9111 (radiation, rod plant at 5 Hz, no thermometer): radiation calibrated
     # jointly explains the record (penalised held-out gain 42.0) only with the
     # emissivity at 1, the end of its range, and nonlinear convection (46.3) is named.
-    # The report says why radiation is not among the rivals; an effect at the zero end
-    # of its range is absent, not pinned, and a fit that does not explain is not said
+    # The report says why radiation is not among the rivals, as it does for a fit a
+    # measurement refutes; a fit that does not explain the records is not said
     def calibration():
         return SimpleNamespace(findings=lambda: [])
 
@@ -286,18 +287,24 @@ def test_an_explanation_at_the_end_of_its_range_is_set_aside_and_said(monkeypatc
     leaves = JointFit(name='sensor_lag', values={}, n_params=1, sims=['s'], criterion=50.0,
                       explained=False, pinned=[('effects.sensor_lag', 3.0, 3.0)],
                       calibration=calibration())
+    refuted = JointFit(name='power_loss', values={}, n_params=1, sims=['p'], criterion=12.5,
+                       explained=True, pinned=[], calibration=calibration(),
+                       refuted=[('effects.power_loss_fraction', 0.2, 'the thermometer')])
     monkeypatch.setattr(joint, 'joint_order', lambda rounds, candidates, extra=(): [])
     monkeypatch.setattr(joint, 'joint_calibrations', lambda *args, **kwargs: [
-        at_bound, taken, leaves])
+        at_bound, taken, leaves, refuted])
     monkeypatch.setattr(joint, 'lowers_heldout_rms', lambda problems, sims, rmse: True)
     outcome = joint.joint_extension(None, [], [], None, CANDIDATES, [], {})
-    assert outcome.joint is taken and outcome.rivals == [] and outcome.pinned == [at_bound]
-    note = pinned_note(outcome.pinned)
+    assert outcome.joint is taken and outcome.rivals == []
+    assert outcome.aside == [at_bound, refuted]
+    note = set_aside_note(outcome.aside)
     assert note.startswith('radiation, calibrated jointly with all the nominal parameters, '
                            'explains the records (penalised held-out gain 42.0) only with '
-                           'effects.emissivity = 1, the end of its physical range')
-    assert 'is not named' in note
-    unit = pinned_note([JointFit(name='sensor_lag', values={}, n_params=1, sims=[],
-                                 criterion=1.0, explained=True,
-                                 pinned=[('effects.sensor_lag', 3.0, 3.0)])])
+                           'effects.emissivity = 1, the end of its physical range; power_loss')
+    assert 'effects.power_loss_fraction = 0.2, refuted by the thermometer' in note
+    assert note.endswith('is not named (docs/diagnosis_method.md, "Effects at a bound, or '
+                         'refuted by a measurement")')
+    unit = set_aside_note([JointFit(name='sensor_lag', values={}, n_params=1, sims=[],
+                                    criterion=1.0, explained=True,
+                                    pinned=[('effects.sensor_lag', 3.0, 3.0)])])
     assert 'effects.sensor_lag = 3 s, the end' in unit

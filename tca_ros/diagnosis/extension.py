@@ -17,11 +17,12 @@ from tca_ros.diagnosis.family_rivals import decisive_despite_structure, family_r
 from tca_ros.diagnosis.findings import explain_findings, finding_effects, findings_rival, \
     found_text, unexplained_findings
 from tca_ros.diagnosis.joint import beats_nominal, joint_extension, WITHIN_DESCRIPTION
-from tca_ros.diagnosis.joint_text import described_note, joint_notes, pinned_note, \
+from tca_ros.diagnosis.joint_text import described_note, joint_notes, set_aside_note, \
     undone_note
 from tca_ros.diagnosis.one_load import gain_took_up_softening, predictable_below_floor, \
     RIVAL as ONE_LOAD_RIVAL, softening_on_one_load
 from tca_ros.diagnosis.search import MIN_GAIN_PERCENT, search_effects
+from tca_ros.diagnosis.thermometer import thermometer_refutes
 from tca_ros.diagnosis.verdict import channel_stats, decide_verdict, holds_one_load, \
     needs_explaining, NOTHING_TO_EXPLAIN, pooled_heldout_rmse
 from tca_ros.diagnosis.verdict_text import found_sentence
@@ -108,17 +109,20 @@ def run_search(nominal, notes):
     return effects, values, extendeds, rounds
 
 
-def at_bounds(judgement, effects, values, candidates):
+def at_bounds(judgement, effects, values, nominal, extendeds):
     """Return ``judgement`` (RMSE, stats, verdict, sentence), 'unexplained' if no cause.
 
     An 'explained' whose effects have a parameter at the end of its physical
     range (candidates.parameters_at_bounds), or one a measurement refutes (an
     ambient offset the thermometer at rest does not read,
-    candidates.contradicted_by_measurement), is no explanation: the effect
-    stands in for another cause.
+    candidates.contradicted_by_measurement; a heat-balance effect whose
+    ``extendeds`` predict the thermometer worse than ``nominal``'s simulations,
+    thermometer.thermometer_refutes), is no explanation: the effect stands in
+    for another cause.
     """
     if judgement[2] != 'explained':
         return judgement
+    candidates = nominal.candidates
     pinned = parameters_at_bounds(effects, values, candidates)
     if pinned:
         return judgement[:2] + ('unexplained', 'the effects found leave no structure, but '
@@ -134,6 +138,12 @@ def at_bounds(judgement, effects, values, candidates):
                                             f'{lo:.4g} to {hi:.4g} from {what}'
                                             for n, v, lo, hi, what in refuted)
                                 + ': it stands in for another cause and is not named')
+    witnessed = thermometer_refutes(effects, values, nominal.problems, nominal.sims, extendeds)
+    if witnessed:
+        return judgement[:2] + ('unexplained', 'the effects found leave no structure, but '
+                                + ', '.join(f'{n} = {v:.4g}' for n, v, _ in witnessed)
+                                + f' is refuted by {witnessed[0][2]}: it stands in for '
+                                'another cause and is not named')
     return judgement
 
 
@@ -155,7 +165,7 @@ def second_opinions(nominal, calibrate_with, effects, values, extendeds, rounds,
     # an explanation with a parameter at the end of its range is none: the joint stage
     # and the findings' effects get their chance at what it stands in for
     judgement = at_bounds(nominal.judged(effects, values, extendeds), effects, values,
-                          nominal.candidates)
+                          nominal, extendeds)
     cal, joint, found = nominal.cal, None, False
     on_findings = set()  # effects named on the findings' evidence: values the fit moved
     named_by_findings = finding_effects(cal)
@@ -168,13 +178,13 @@ def second_opinions(nominal, calibrate_with, effects, values, extendeds, rounds,
             # on one load a gain moved down may have taken up a softening: the search's
             # screen (a softening added on top of that gain) cannot see it (one_load.py)
             extra.append(ONE_LOAD_RIVAL)
-        joint, rivals, near, described, undone, pinned = joint_extension(
+        joint, rivals, near, described, undone, aside = joint_extension(
             calibrate_with, nominal.problems, nominal.sims, cal, nominal.candidates, rounds,
             nominal.drift_free_rmse, extra=extra)
         if undone and (joint is None or undone[0].criterion > joint.criterion):
             notes.append(undone_note(undone))
-        if pinned:  # an explanation set aside: a rival the reader is told of either way
-            notes.append(pinned_note(pinned))
+        if aside:  # an explanation set aside: a rival the reader is told of either way
+            notes.append(set_aside_note(aside))
         if described is not None:  # the muscle as described explains it best: no finding
             notes.append(described_note(described))
             named_by_findings = []
@@ -220,8 +230,8 @@ def second_opinions(nominal, calibrate_with, effects, values, extendeds, rounds,
         if taken is not None:
             joint = taken
             effects, values, extendeds, judgement = nominal.adopted(taken)
-    rmse, stats, verdict, explanation = at_bounds(judgement, effects, values,
-                                                  nominal.candidates)
+    rmse, stats, verdict, explanation = at_bounds(judgement, effects, values, nominal,
+                                                  extendeds)
     if (verdict == 'explained' and joint is None and cal is not None and named_by_findings
             and not set(effects) & set(named_by_findings)):
         # the search explained the records with effects none of the findings stand for:

@@ -30,6 +30,7 @@ from tca_ros.diagnosis.described import admitted_effects, description_cost
 from tca_ros.diagnosis.joint_groups import joint_order, pair_order
 from tca_ros.diagnosis.rivals import DECISIVE_DEVIANCE, unresolved_rivals
 from tca_ros.diagnosis.search import MIN_GAIN_PERCENT
+from tca_ros.diagnosis.thermometer import thermometer_refutes
 from tca_ros.diagnosis.verdict import channel_stats, heldout_gain_over, needs_explaining, \
     pooled_heldout_rmse
 from tca_ros.model.tca_params import to_flat_dict
@@ -165,10 +166,12 @@ def joint_calibrations(calibrate_with, problems, nominals, cal, candidates, grou
             continue
         stats = channel_stats(problems, sims, [p.parameters(values) for p in problems])
         # a value at the end of its range, or one a measurement refutes (an ambient
-        # offset the thermometer at rest does not read), explains nothing (G61, G69)
+        # offset the thermometer at rest does not read, a heat-balance effect the
+        # thermometer reads worse), explains nothing (G61, G69, G86)
         pinned = parameters_at_bounds(list(names), values, candidates)
         refuted = [(n, v, what) for n, v, _, _, what in
                    contradicted_by_measurement(list(names), values, candidates)]
+        refuted += thermometer_refutes(names, values, problems, nominals, sims)
         thermometer = 'temperature' in problems[0].channels
         admitted = admitted_effects(names, joint.params, cal.start, spreads, thermometer)
         # a value its own effect moves the other way, left beyond the description (G83)
@@ -176,8 +179,8 @@ def joint_calibrations(calibrate_with, problems, nominals, cal, candidates, grou
         confirmed = None
         whole = getattr(calibrate_with, 'whole', None)
         if (needs_explaining(stats) and criterion > DECISIVE_DEVIANCE and whole is not None
-                and not pinned and not refuted):  # a barred fit is taken nowhere (an
-            # undone one is confirmed, so the report can say what it set aside)
+                and not pinned):  # a barred fit is taken nowhere (an undone or a refuted
+            # one is confirmed, so the report can say what it set aside)
             confirmed = confirm_on_whole(whole, problems, cal, fitted + own, joint)
         out.append(JointFit(
             name=' + '.join(names), values=values, n_params=len(own), sims=sims,
@@ -280,7 +283,8 @@ def joint_extension(calibrate_with, problems, nominals, cal, candidates, rounds,
     holds it. A fit that leaves a value its own effect moves the other way
     (JointFit.undone, G83) is taken nowhere; the outcome lists those that pass
     every other rule, for the report, and so those that explain the records but
-    for a parameter at the end of its range (JointFit.pinned). Arguments as
+    for a value at the end of its range or refuted by a measurement (JointFit.pinned,
+    JointFit.refuted). Arguments as
     joint_calibrations and best_joint; ``rounds`` are the search's SearchRounds.
     """
     fits = joint_calibrations(calibrate_with, problems, nominals, cal, candidates,
@@ -302,18 +306,18 @@ def joint_extension(calibrate_with, problems, nominals, cal, candidates, rounds,
         return lowers_heldout_rms(problems, fit.sims, nominal_rmse)
 
     # what best_joint would have taken but for a value its effects move the other way,
-    # and what explains the records but for a parameter at the end of its range
+    # and what explains the records but for a value at the end of its range or refuted
     undone = sorted((f for f in every if f.undone and not (f.pinned or f.refuted)
                      and f.claimed and explains(f, lowers)),
                     key=lambda f: f.criterion, reverse=True)
-    pinned = sorted((f for f in every if f.pinned and not (f.undone or f.refuted)
-                     and f.claimed and explains(f, lowers)),
-                    key=lambda f: f.criterion, reverse=True)
+    aside = sorted((f for f in every if (f.pinned or f.refuted) and not f.undone
+                    and f.claimed and explains(f, lowers)),
+                   key=lambda f: f.criterion, reverse=True)
     described = described_lead(every, joint, lowers)
     if described is not None:
-        return JointOutcome(None, [], [], described, undone, pinned)
+        return JointOutcome(None, [], [], described, undone, aside)
     return JointOutcome(joint, rivals, unresolved_rivals(joint, fits, lowers), None, undone,
-                        pinned)
+                        aside)
 
 
 class JointOutcome(NamedTuple):
@@ -328,9 +332,9 @@ class JointOutcome(NamedTuple):
     #: the fits best_joint would have taken but for a value their effects move the
     #: other way (JointFit.undone, G83), best first
     undone: list = ()
-    #: the fits that explain the records but for a parameter at the end of its
-    #: physical range (JointFit.pinned, G61), best first
-    pinned: list = ()
+    #: the fits that explain the records but for a value at the end of its physical
+    #: range or refuted by a measurement (JointFit.pinned, .refuted), best first
+    aside: list = ()
 
 
 def described_lead(fits, taken, lowers_rms):

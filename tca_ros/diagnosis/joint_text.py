@@ -79,22 +79,26 @@ def undone_note(fits):
         '"Joint calibration": undone)')
 
 
-def pinned_note(fits):
-    """Return the note on JointFits set aside for a parameter at the end of its range (G61).
+def set_aside_note(fits):
+    """Return the note on JointFits set aside for a value at a bound or refuted (G61, G86).
 
-    ``fits``: JointOutcome.pinned (not empty), best first: each explained the
+    ``fits``: JointOutcome.aside (not empty), best first: each explained the
     records and predicted the held-out part better than the nominal model, but
     only with a parameter of its effect at the end of its physical range (an
-    emissivity of 1, a lag at its longest).
+    emissivity of 1, a lag at its longest) or with a value a measurement refutes
+    (a room the thermometer at rest does not read, a temperature the thermometer
+    reads worse).
     """
     return '; '.join(
         f'{f.name}, calibrated jointly with all the nominal parameters, explains the records '
-        f'(penalised held-out gain {f.criterion:.1f}) only with '
-        + ', '.join(f'{name} = {value:.4g}' + _unit(name) for name, value, _ in f.pinned)
-        for f in fits) + (
-        ', the end of its physical range: the records ask for more than the effect can be, '
-        'so it stands in for another cause and is not named (docs/diagnosis_method.md, '
-        '"Joint calibration")')
+        f'(penalised held-out gain {f.criterion:.1f}) only with ' + ', '.join(
+            [f'{name} = {value:.4g}{_unit(name)}, the end of its physical range'
+             for name, value, _ in f.pinned]
+            + [f'{name} = {value:.4g}{_unit(name)}, refuted by {what}'
+               for name, value, what in f.refuted]) for f in fits) + (
+        ': an effect that needs more than it can be, or that a measurement contradicts, '
+        'stands in for another cause and is not named (docs/diagnosis_method.md, '
+        '"Effects at a bound, or refuted by a measurement")')
 
 
 def _unit(name):
