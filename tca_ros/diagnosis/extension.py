@@ -138,7 +138,8 @@ def at_bounds(judgement, effects, values, nominal, extendeds):
                                             f'{lo:.4g} to {hi:.4g} from {what}'
                                             for n, v, lo, hi, what in refuted)
                                 + ': it stands in for another cause and is not named')
-    witnessed = thermometer_refutes(effects, values, nominal.problems, nominal.sims, extendeds)
+    witnessed = thermometer_refutes(effects, values, nominal.problems, nominal.sims, extendeds,
+                                    candidates)
     if witnessed:
         return judgement[:2] + ('unexplained', 'the effects found leave no structure, but '
                                 + ', '.join(f'{n} = {v:.4g}' for n, v, _ in witnessed)

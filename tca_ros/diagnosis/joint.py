@@ -171,7 +171,7 @@ def joint_calibrations(calibrate_with, problems, nominals, cal, candidates, grou
         pinned = parameters_at_bounds(list(names), values, candidates)
         refuted = [(n, v, what) for n, v, _, _, what in
                    contradicted_by_measurement(list(names), values, candidates)]
-        refuted += thermometer_refutes(names, values, problems, nominals, sims)
+        refuted += thermometer_refutes(names, values, problems, nominals, sims, candidates)
         thermometer = 'temperature' in problems[0].channels
         admitted = admitted_effects(names, joint.params, cal.start, spreads, thermometer)
         # a value its own effect moves the other way, left beyond the description (G83)

@@ -28,17 +28,24 @@ CHANNEL = 'temperature'
 THERMOMETER_SLACK = 0.05
 
 
-def thermometer_refutes(names, values, problems, base_sims, sims):
+def thermometer_refutes(names, values, problems, base_sims, sims, candidates):
     """Return [(dotted name, value, what)] of ``names``' values the thermometer refutes.
 
     ``names``: the effects of a fit (all of them through the temperature, else none
     is refuted: another effect of the fit may move the temperature for its own
     reason); ``values``: its dotted values; ``problems``, ``base_sims`` and
     ``sims``: the records' FitProblems and the record-rate simulations of the
-    model replaced and of the fit. Empty without a thermometer.
+    model replaced and of the fit. Empty without a thermometer, and for a fit
+    whose value the thermometer measures directly and supports (an ambient
+    offset within the band of the room read at rest, ``Candidate.measured`` of
+    ``candidates``): that reading is the evidence on it, the held-out part's
+    temperature carries the rest of the model's errors too.
     """
     if CHANNEL not in problems[0].channels or not names \
             or not all(n in THROUGH_TEMPERATURE for n in names):
+        return []
+    if any(low <= values.get(p, low - 1.0) <= high for c in candidates if c.name in names
+           for p, (low, high, _) in c.measured.items()):
         return []
     before, after = (pooled_heldout_rmse(problems, s, [CHANNEL], detrend=True)[CHANNEL]
                      for s in (base_sims, sims))
