@@ -109,7 +109,7 @@ def run_search(nominal, notes):
     return effects, values, extendeds, rounds
 
 
-def at_bounds(judgement, effects, values, nominal, extendeds):
+def at_bounds(judgement, effects, values, nominal, extendeds, witnessed=True):
     """Return ``judgement`` (RMSE, stats, verdict, sentence), 'unexplained' if no cause.
 
     An 'explained' whose effects have a parameter at the end of its physical
@@ -117,8 +117,9 @@ def at_bounds(judgement, effects, values, nominal, extendeds):
     ambient offset the thermometer at rest does not read,
     candidates.contradicted_by_measurement; a heat-balance effect whose
     ``extendeds`` predict the thermometer worse than ``nominal``'s simulations,
-    thermometer.thermometer_refutes), is no explanation: the effect stands in
-    for another cause.
+    thermometer.thermometer_refutes, unless ``witnessed`` is False: effects
+    named on the findings' evidence, joint.joint_calibrations), is no
+    explanation: the effect stands in for another cause.
     """
     if judgement[2] != 'explained':
         return judgement
@@ -138,12 +139,12 @@ def at_bounds(judgement, effects, values, nominal, extendeds):
                                             f'{lo:.4g} to {hi:.4g} from {what}'
                                             for n, v, lo, hi, what in refuted)
                                 + ': it stands in for another cause and is not named')
-    witnessed = thermometer_refutes(effects, values, nominal.problems, nominal.sims, extendeds,
-                                    candidates)
-    if witnessed:
+    refuted = thermometer_refutes(effects, values, nominal.problems, nominal.sims, extendeds,
+                                  candidates) if witnessed else []
+    if refuted:
         return judgement[:2] + ('unexplained', 'the effects found leave no structure, but '
-                                + ', '.join(f'{n} = {v:.4g}' for n, v, _ in witnessed)
-                                + f' is refuted by {witnessed[0][2]}: it stands in for '
+                                + ', '.join(f'{n} = {v:.4g}' for n, v, _ in refuted)
+                                + f' is refuted by {refuted[0][2]}: it stands in for '
                                 'another cause and is not named')
     return judgement
 
@@ -232,7 +233,7 @@ def second_opinions(nominal, calibrate_with, effects, values, extendeds, rounds,
             joint = taken
             effects, values, extendeds, judgement = nominal.adopted(taken)
     rmse, stats, verdict, explanation = at_bounds(judgement, effects, values, nominal,
-                                                  extendeds)
+                                                  extendeds, witnessed=not on_findings)
     if (verdict == 'explained' and joint is None and cal is not None and named_by_findings
             and not set(effects) & set(named_by_findings)):
         # the search explained the records with effects none of the findings stand for:

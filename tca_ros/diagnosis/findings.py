@@ -157,7 +157,7 @@ def finding_tests(calibrate_with, problems, nominals, cal, candidates):
     if not groups:
         return None
     fits = joint_calibrations(calibrate_with, problems, nominals, cal, candidates, groups,
-                              gate=False)
+                              gate=False, witnessed=False)
     return [weigh_finding_effect(f, cal, problems, nominals) for f in fits]
 
 

@@ -126,7 +126,7 @@ def changed_values(params, reference):
 
 
 def joint_calibrations(calibrate_with, problems, nominals, cal, candidates, groups,
-                       gate=True, singles=()):
+                       gate=True, singles=(), witnessed=True):
     """Return the JointFits of the candidate ``groups`` (each a tuple: one effect or a pair).
 
     ``calibrate_with(fit, start_values, like)`` runs the training-part
@@ -139,7 +139,11 @@ def joint_calibrations(calibrate_with, problems, nominals, cal, candidates, grou
     (a finding's effect may fit it only as well, with the nominal values back
     where the description has them: findings.py). ``singles``: the JointFits of
     single effects a pair must do better than (:func:`pays_beyond_its_members`);
-    a pair that does not is dropped before its structure is tested.
+    a pair that does not is dropped before its structure is tested. With
+    ``witnessed``, a heat-balance effect the thermometer reads worse than the
+    nominal model is refuted (thermometer.py); a finding's effect is not
+    (findings.py): the nominal it is compared with has taken it up by moving the
+    very values the effect returns, and fits the temperature with them.
     """
     fitted = list(cal.report.estimates)
     spreads = prior_spreads(cal.start)
@@ -171,7 +175,8 @@ def joint_calibrations(calibrate_with, problems, nominals, cal, candidates, grou
         pinned = parameters_at_bounds(list(names), values, candidates)
         refuted = [(n, v, what) for n, v, _, _, what in
                    contradicted_by_measurement(list(names), values, candidates)]
-        refuted += thermometer_refutes(names, values, problems, nominals, sims, candidates)
+        if witnessed:
+            refuted += thermometer_refutes(names, values, problems, nominals, sims, candidates)
         thermometer = 'temperature' in problems[0].channels
         admitted = admitted_effects(names, joint.params, cal.start, spreads, thermometer)
         # a value its own effect moves the other way, left beyond the description (G83)
