@@ -7,7 +7,7 @@ PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 OUT ?= out
 
-.PHONY: demo test bench install clean
+.PHONY: demo test test-slow bench install clean
 
 install: $(STAMP)
 
@@ -20,8 +20,14 @@ $(STAMP): requirements.txt setup.py setup.cfg package.xml
 demo: $(STAMP)
 	$(VENV)/bin/tca_sim demo --out $(OUT)
 
+PYTEST := OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1 $(PY) -m pytest -q --timeout=600 -n 2 \
+	--dist loadfile --durations=25
+
 test: $(STAMP)
-	OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1 $(PY) -m pytest -q --timeout=600 -n 2 --dist loadfile --durations=25 test
+	$(PYTEST) -m "not slow" test
+
+test-slow: $(STAMP)
+	$(PYTEST) -m slow test
 
 bench: $(STAMP)
 	$(VENV)/bin/tca_sim bench

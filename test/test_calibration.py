@@ -128,6 +128,7 @@ def test_a_real_calibration_is_continuous_in_its_data():
         assert values[1][name] == pytest.approx(values[0][name], rel=0.01), name
 
 
+@pytest.mark.slow
 def test_temperature_channel_separates_actuation_gain_from_heating():
     # a thermocouple (0.3 K noise) and 20 % of the logged power lost in the leads: the
     # temperature fixes the rise per logged watt (ratio x rise), the stroke then the gain;

@@ -73,7 +73,7 @@ def test_no_hidden_effect_names_none(tmp_path, seed):
     assert result.extended_rmse == result.nominal_rmse
 
 
-@pytest.mark.parametrize('seed', [401, 402])
+@pytest.mark.parametrize('seed', [401, pytest.param(402, marks=pytest.mark.slow)])
 def test_two_hidden_effects_are_both_found(tmp_path, seed):
     synth, path = _record(tmp_path, seed, 'random', n_effects=2)
     result = _diagnose(path)
@@ -82,6 +82,7 @@ def test_two_hidden_effects_are_both_found(tmp_path, seed):
     assert result.verdict == 'explained'
 
 
+@pytest.mark.slow
 def test_effect_outside_the_catalogue_is_unexplained(tmp_path):
     # a 40 % larger heat capacity: no catalogue effect slows the thermal time constant
     synth = make_synthetic_record(77, effects=None, duration=120.0, sample_rate=RATE_HZ)
@@ -101,6 +102,7 @@ def test_effect_outside_the_catalogue_is_unexplained(tmp_path):
     assert 'unexplained structure remains' in result.explanation
 
 
+@pytest.mark.slow
 def test_report_files_schema_and_determinism(tmp_path):
     synth, path = _record(tmp_path, 501, ['power_loss'], duration=80.0)
     first = _diagnose(path, report_dir=str(tmp_path / 'a'))

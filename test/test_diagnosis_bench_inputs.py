@@ -111,6 +111,7 @@ def _cooling_record(seed, tau_thermal=4.0, n=600):
     return power, rise, residual + 0.05 * rng.standard_normal(n)
 
 
+@pytest.mark.slow
 def test_the_wander_reaches_the_channel_through_the_thermal_lag():
     # eight records of a 3 %, 10 s wander behind a 4 s thermal lag (G63): passed
     # through the lag, the fitted wander has about its correlation time and no
@@ -210,6 +211,7 @@ def test_the_plant_itself_passes_on_a_record_that_logs_the_commanded_power(tmp_p
     assert _truth_structured(record, truth)
 
 
+@pytest.mark.slow
 def test_a_second_lag_on_a_commanded_power_is_a_lag_with_its_rival_not_a_dead_time(tmp_path):
     # Seed 9142: a second thermal lag, 20 Hz, the power logged as the command. With the
     # wander taken as model error, the plant's own parameters leave structure and the
@@ -266,6 +268,7 @@ def test_an_ambient_offset_the_thermometer_at_rest_did_not_read_is_contradicted(
     assert not contradicted_by_measurement([], {'effects.ambient_offset': -3.0}, read)
 
 
+@pytest.mark.slow
 def test_a_curved_heat_loss_is_not_an_ambient_offset_the_thermometer_contradicts(tmp_path):
     # Seed 9112: radiation (emissivity 0.71), a thermometer, 2 Hz, the power logged as the
     # command. The calibration takes up the curved heat loss with a linear one (+5.8
@@ -346,6 +349,7 @@ def test_the_room_the_thermometer_reads_at_rest_beyond_the_description_is_a_find
     assert reading(described, [record]) is None and ROOM == 'ambient_temperature'
 
 
+@pytest.mark.slow
 def test_an_ambient_offset_the_thermometer_reads_is_named_beside_the_rods_structure(
         tmp_path, monkeypatch):
     # Seed 9433: an ambient offset of -4.35 K, a thermometer at 1 Hz, a rod plant fitted

@@ -1,4 +1,6 @@
 """An effect is named only where its own part of the prediction exceeds the structure floor."""
+import pytest
+
 from tca_ros.diagnosis.effect_size import below_floor_note, switched_off
 from tca_ros.model.effects import CATALOGUE
 from tca_ros.params.files import load_params
@@ -19,6 +21,7 @@ def test_switching_an_effect_off_puts_its_size_at_the_neutral_default():
     assert 'friction (displacement 40 within 55 um)' in note and 'creep is named' in note
 
 
+@pytest.mark.slow
 def test_a_friction_moving_the_stroke_less_than_its_practical_floor_is_not_named(tmp_path):
     # seed 9600 of the confusion benchmark: no effect hidden, a cst plant at 100 Hz with
     # a thermometer, described exactly. The calibrated nominal model leaves 106 um the
@@ -34,6 +37,7 @@ def test_a_friction_moving_the_stroke_less_than_its_practical_floor_is_not_named
     assert 0.0 < own <= floor
 
 
+@pytest.mark.slow
 def test_a_lone_effect_the_nominal_calibration_took_up_is_measured_against_it(tmp_path):
     # seed 9807 of the confusion benchmark's fourth sample: a creep (2.0 mm, 40 s) on a
     # rod plant at 2 Hz whose record starts a minute after a 0.5 W heating, its encoder

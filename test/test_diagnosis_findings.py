@@ -77,6 +77,7 @@ def test_a_tight_description_narrows_the_refit_beside_each_candidate():
     assert absorbed_candidates(candidates, tight)[1] == []
 
 
+@pytest.mark.slow
 def test_a_decisive_power_loss_is_found_beside_structure_a_null_leaves(tmp_path):
     # The power is logged as the command while the thread gets +-3 % more or less: no
     # model of the logged inputs leaves the residual unstructured, the plant's own
@@ -121,6 +122,7 @@ def test_a_finding_effect_is_not_found_beside_structure_without_a_decisive_margi
                                    [_finding_test('power_loss', 9.5)]) is None
 
 
+@pytest.mark.slow
 def test_a_sensor_lag_the_heat_capacity_took_up_without_a_thermometer_is_found(tmp_path):
     # seed 9126 of the confusion benchmark (a 240 s record at 5 Hz, cst plant, power
     # logged as the command, no thermometer) hides a sensor lag and a hysteresis: the
@@ -134,6 +136,7 @@ def test_a_sensor_lag_the_heat_capacity_took_up_without_a_thermometer_is_found(t
     assert sorted(result.effects) == ['hysteresis', 'sensor_lag'], result.notes
 
 
+@pytest.mark.slow
 def test_a_friction_in_a_drifting_record_is_confirmed_on_the_whole_record_less_the_drift(
         tmp_path):
     # seed 9123 of the confusion benchmark (a 240 s record at 1 Hz, rod plant, noisy
@@ -150,6 +153,7 @@ def test_a_friction_in_a_drifting_record_is_confirmed_on_the_whole_record_less_t
         truth.effects.friction_force, rel=0.15)
 
 
+@pytest.mark.slow
 def test_a_hysteresis_the_heat_capacity_took_up_is_tested_as_its_cause(tmp_path):
     # seed 9107 of the confusion benchmark run with four muscles per effect (a 240 s
     # record at 2 Hz, rod plant, no thermometer) hides a hysteresis: the exact
@@ -163,6 +167,7 @@ def test_a_hysteresis_the_heat_capacity_took_up_is_tested_as_its_cause(tmp_path)
         truth.effects.hysteresis_width, rel=0.3)
 
 
+@pytest.mark.slow
 def test_a_search_explanation_faces_the_effect_the_findings_stand_for(tmp_path):
     # seed 9818 of the confusion benchmark's fourth sample (1 Hz, cst plant, a
     # thermometer) hides a nonlinear convection; two loads together. The calibration
@@ -179,6 +184,7 @@ def test_a_search_explanation_faces_the_effect_the_findings_stand_for(tmp_path):
         truth.effects.convection_exponent, rel=0.3)
 
 
+@pytest.mark.slow
 def test_an_ambient_offset_the_first_round_ranked_behind_idle_lags_is_named(tmp_path):
     # seed 9130 of the confusion benchmark (a 240 s record at 100 Hz, cst plant, power
     # logged as the command, no thermometer) hides a 7.2 K ambient offset. The first
@@ -192,6 +198,7 @@ def test_an_ambient_offset_the_first_round_ranked_behind_idle_lags_is_named(tmp_
         truth.effects.ambient_offset, abs=1.0)
 
 
+@pytest.mark.slow
 def test_a_lag_that_predicts_decisively_better_is_named_though_structure_remains(tmp_path):
     # seed 9142 of the confusion benchmark (a 240 s record at 2 Hz, cst plant, power
     # logged as the command, no thermometer) hides a second thermal lag. Calibrated
@@ -245,6 +252,7 @@ def test_a_finding_a_drift_moves_by_a_hair_stays_a_finding(tmp_path):
     assert not [n for n in result.notes if n.startswith('not findings:')]
 
 
+@pytest.mark.slow
 def test_two_values_within_their_spreads_but_unlikely_together_name_a_power_loss(tmp_path):
     # seed 10034 of the confusion benchmark's fifth sample: a 9 % power loss at 20 Hz
     # with no thermometer, described exactly. The calibration moves the heat capacity,
@@ -274,6 +282,7 @@ def test_a_value_moved_the_way_no_effect_moves_it_names_nothing_and_is_said(tmp_
     assert not [n for n in result.notes if 'calibrated jointly' in n], result.notes
 
 
+@pytest.mark.slow
 def test_a_joint_fit_that_undoes_its_own_effect_is_not_named(tmp_path):
     # seed 9852 of the fourth sample: a sensor nonlinearity (outside the catalogue) on one
     # load, cst plant at 2 Hz. The search leaves structure; a softening calibrated jointly
@@ -287,6 +296,7 @@ def test_a_joint_fit_that_undoes_its_own_effect_is_not_named(tmp_path):
     assert 'is not named' in note
 
 
+@pytest.mark.slow
 def test_a_rival_that_moves_the_stated_room_far_loses_to_one_that_moves_nothing(tmp_path):
     # seed 9423 of the second sample: a softening of 10.8 MPa/K on one load, rod plant at
     # 1 Hz, no thermometer. Calibrated jointly, an ambient offset of -8.2 K (the room is
@@ -302,6 +312,7 @@ def test_a_rival_that_moves_the_stated_room_far_loses_to_one_that_moves_nothing(
     assert 'for the described values it moves' in note
 
 
+@pytest.mark.slow
 def test_an_effect_that_leaves_a_finding_it_cannot_make_standing_explains_nothing(tmp_path):
     # seed 9456 of the second sample: a sensor nonlinearity (outside the catalogue) on
     # one load, a cst plant at 5 Hz with a thermometer. The calibration takes the gain
@@ -317,6 +328,7 @@ def test_an_effect_that_leaves_a_finding_it_cannot_make_standing_explains_nothin
     assert 'modulus_softening (objective fall' in note and 'values not returned' in note
 
 
+@pytest.mark.slow
 def test_a_heat_loss_the_thermometer_reads_worse_does_not_explain_a_fading_gain(tmp_path):
     # Seed 9653 (outside the catalogue: the actuation gain fades by 25 % over a 240 s
     # record at 1 Hz, rod plant, with a thermometer). Nonlinear convection calibrated
@@ -332,6 +344,7 @@ def test_a_heat_loss_the_thermometer_reads_worse_does_not_explain_a_fading_gain(
     assert len(aside) == 1 and 'refuted by the thermometer' in aside[0]
 
 
+@pytest.mark.slow
 def test_a_finding_s_power_loss_is_not_judged_by_the_temperature_its_nominal_bent_to(
         tmp_path):
     # Seed 9437 (a power loss, rod plant at 2 Hz, with a thermometer): the calibration

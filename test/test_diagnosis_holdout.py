@@ -111,6 +111,7 @@ def test_input_terms_of_runs_carry_the_power_history_and_the_same_columns():
     assert not test.structured
 
 
+@pytest.mark.slow
 def test_friction_in_a_one_step_record_of_another_plant_is_named_at_its_size(tmp_path):
     # one heating step and its cooling, logged as a bench logs it (5 Hz, nominal on/off
     # power, AR(1) + white noise, 8.4 um encoder, a drift): a perturbed muscle with 15 mN

@@ -9,6 +9,8 @@ import re
 import shutil
 import types
 
+import pytest
+
 import tca_ros
 from tca_ros.calibration.physical_priors import Plausibility
 from tca_ros.cli.main import main
@@ -88,6 +90,7 @@ def test_calibrate_and_diagnose_print_one_name_and_value_per_parameter(tmp_path,
         assert dotted not in candidates, dotted
 
 
+@pytest.mark.slow
 def test_a_diagnosis_names_its_calibration_as_calibrate_does(tmp_path):
     record = _short_record(tmp_path)
     report = tmp_path / 'report'

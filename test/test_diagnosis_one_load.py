@@ -22,6 +22,7 @@ def _exact(tmp_path, seed, hidden):
     return record, description
 
 
+@pytest.mark.slow
 def test_a_softening_the_gain_hides_on_one_load_is_named_with_the_load_that_separates(tmp_path):
     # Confusion benchmark muscle 9111: a rod plant at 5 Hz with a drifting sensor, one
     # load, its modulus softening 7.2 MPa/K. Calibrated from an exact description the
@@ -104,6 +105,7 @@ def _bench_exact(tmp_path, seed, hidden):
     return record, description, truth
 
 
+@pytest.mark.slow
 def test_a_softening_the_screen_cannot_see_is_calibrated_jointly_when_structure_is_left(tmp_path):
     # Seed 9122 of the confusion benchmark with four muscles per effect: a cst plant at
     # 2 Hz, no thermometer, one load, a softening of 8.9 MPa/K. The calibrated gain took

@@ -4,6 +4,7 @@ import pytest
 from conftest import benchmark_case  # noqa: I100
 
 
+@pytest.mark.slow
 def test_a_friction_held_end_of_a_record_not_at_rest_is_searched_and_named(tmp_path):
     # seed 9447 of the confusion benchmark: 34 mN of friction on a rod plant at 2 Hz,
     # without a thermometer, its record starting 30 s after a 0.5 W heating, described

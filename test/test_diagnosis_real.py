@@ -44,6 +44,7 @@ def _null_record(tmp_path, seed):
     return str(path), str(start)
 
 
+@pytest.mark.slow
 def test_null_record_of_a_perturbed_muscle_names_no_effect(tmp_path):
     path, start = _null_record(tmp_path, 11)
     result = diagnose(path, start, progress=False, model='cst',
@@ -57,6 +58,7 @@ def test_null_record_of_a_perturbed_muscle_names_no_effect(tmp_path):
     assert doc['calibrated']['thermal_time_constant']['determined'] is True
 
 
+@pytest.mark.slow
 def test_without_calibration_the_same_record_blames_effects(tmp_path):
     # the control: against the uncalibrated start, the perturbed muscle looks like effects
     path, start = _null_record(tmp_path, 11)
@@ -155,6 +157,7 @@ def test_several_records_of_one_muscle_are_diagnosed_together(tmp_path, capsys):
     assert doc['effects'] == [], out
 
 
+@pytest.mark.slow
 def test_a_calibration_the_model_cannot_run_falls_back_to_the_description(
         tmp_path, monkeypatch):
     # a real record (salp 2 W, encoder_2) calibrated on its training part alone gave a
@@ -227,6 +230,7 @@ def test_an_extension_must_also_gain_held_out_rms_over_the_nominal(tmp_path, mon
     assert any('held-out RMS gain below 1 %' in n for n in result.notes), result.notes
 
 
+@pytest.mark.slow
 def test_a_hidden_friction_is_fitted_at_its_force_without_spoiling_the_temperature(tmp_path):
     # seed 9044 of bench_diagnosis_real: a cst plant, 20 Hz, temperature logged with 0.2 K
     # noise, 20 um AR(1) displacement noise, noisy power. Before the fit scales and the
@@ -248,6 +252,7 @@ def test_a_hidden_friction_is_fitted_at_its_force_without_spoiling_the_temperatu
     assert result.gain_percent > 80.0
 
 
+@pytest.mark.slow
 def test_a_second_thermal_lag_the_calibration_took_as_damping_is_fitted_at_its_time(tmp_path):
     # seed 1040 of bench_diagnosis.py: calibrate-first takes the 3.8 s lag up as a damping
     # of 20.5 N s/m; before the hand-over (docs/decisions.md G13, G14) the refit raised
@@ -266,6 +271,7 @@ def test_a_second_thermal_lag_the_calibration_took_as_damping_is_fitted_at_its_t
     assert result.extended_values['dynamics.damping'] < 5.0
 
 
+@pytest.mark.slow
 def test_a_creep_the_calibration_took_as_softness_is_found_by_a_joint_calibration(tmp_path):
     # seed 9014 of bench_diagnosis_real: a cst plant, 20 Hz, no temperature, AR(1) noise,
     # drift and quantisation; creep of 8.96 mm/N over 50.5 s. With start-centred priors
@@ -288,6 +294,7 @@ def test_a_creep_the_calibration_took_as_softness_is_found_by_a_joint_calibratio
     assert result.channel_gain('displacement') > 50.0
 
 
+@pytest.mark.slow
 def test_two_effects_no_single_one_explains_are_found_by_a_joint_pair(tmp_path, monkeypatch):
     # seed 9200 of the realistic generator with its plant on the rod model (the fits run
     # cst), 100 Hz, coloured noise and quantisation, a drawn muscle: an ambient offset of
@@ -314,6 +321,7 @@ def test_two_effects_no_single_one_explains_are_found_by_a_joint_pair(tmp_path, 
     assert single.verdict != 'explained' or sorted(single.effects) != sorted(hidden)
 
 
+@pytest.mark.slow
 def test_a_sensor_nonlinearity_one_load_hides_is_exposed_by_two_loads_together(tmp_path):
     # seed 9059 of the realistic generator (rod plant, the fits run cst, 20 Hz, noisy
     # power, a warm start): the displacement is read through x + 8 x^2, 0.8 mm extra at

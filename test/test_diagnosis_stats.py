@@ -83,6 +83,7 @@ def test_the_damping_is_refitted_around_its_value_and_left_fixed_at_zero():
     assert all(0.0 <= s.to_unit(values[s.name]) <= 1.0 for s in spaces)
 
 
+@pytest.mark.slow
 def test_a_calibrated_params_file_without_damping_is_diagnosed(tmp_path, capsys):
     # before the guard of recalibration_spaces: "the effect search failed ... (float
     # division by zero)", exit status 1

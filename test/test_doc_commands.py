@@ -51,6 +51,10 @@ RUN_LANGUAGES = ('bash', 'sh')
 OUTPUT_OPTIONS = ('--out', '--report', '--plot', '--shape')
 PAGE_TIMEOUT_S = 300.0
 PARALLEL_PAGES = 2  # pages run at once (the slowest, README.md's make demo, is mostly waiting)
+#: pages whose blocks take 15 s or more (a diagnosis, a calibration and its posterior band,
+#: make demo): the slow tier of the suite runs them (``make test-slow``; docs/cli.md)
+SLOW_PAGES = ('README.md', 'docs/controllers.md', 'docs/diagnosis.md', 'docs/own_muscle.md',
+              'docs/quickstart.md')
 BLOCK_MARK = '@@doc-test block {}@@'
 
 
@@ -205,16 +209,27 @@ def run_page(page, folder):
 
 
 @pytest.fixture(scope='module')
-def page_results(tmp_path_factory):
-    """Start every page with command blocks (PARALLEL_PAGES at once); page -> future."""
+def page_results(request, tmp_path_factory):
+    """Start every selected page with command blocks (PARALLEL_PAGES at once); page -> future.
+
+    Only the pages whose test this session runs (``-m slow``, ``-m "not slow"``, ``-k``).
+    """
+    selected = {item.callspec.params['page'] for item in request.session.items
+                if item.originalname == 'test_every_command_block_runs'}
     pool = ThreadPoolExecutor(max_workers=PARALLEL_PAGES)
     futures = {page: pool.submit(run_page, page, tmp_path_factory.mktemp('clone'))
-               for page in PAGES if planned(page)[0] and not planned(page)[2]}
+               for page in PAGES if page in selected and planned(page)[0]
+               and not planned(page)[2]}
     yield futures
     pool.shutdown(wait=True, cancel_futures=True)
 
 
-@pytest.mark.parametrize('page', PAGES, ids=[str(p.relative_to(ROOT)) for p in PAGES])
+def _page_parameter(page):
+    name = str(page.relative_to(ROOT))
+    return pytest.param(page, id=name, marks=[pytest.mark.slow] if name in SLOW_PAGES else [])
+
+
+@pytest.mark.parametrize('page', [_page_parameter(p) for p in PAGES])
 def test_every_command_block_runs(page, page_results):
     assert not planned(page)[2]
     if page not in page_results:

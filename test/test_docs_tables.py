@@ -67,6 +67,7 @@ def test_check_mode_passes_on_the_committed_docs():
     assert TABLES.main(['--check']) == 0
 
 
+@pytest.mark.slow
 def test_the_example_blocks_show_what_tca_sim_diagnose_prints_today():
     # runs the two example commands (about 25 s of CPU): the docs' example is the
     # command's output verbatim but for its run time (s)

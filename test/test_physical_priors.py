@@ -327,6 +327,7 @@ def test_a_room_offset_moves_the_stroke_per_kelvin_as_the_table_says():
     assert stroke(**{'effects.extra_softening': 8e6}) < 0.97 * base
 
 
+@pytest.mark.slow
 def test_a_glass_transition_plateau_is_found_and_predicts_a_hotter_power():
     # the plant's radial expansion coefficient stops growing at 70 degC (G50); the
     # description keeps the paper's quadratic to 160 degC; trained at 0.3-0.7 W (to about

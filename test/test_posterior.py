@@ -98,6 +98,7 @@ def test_the_file_states_what_the_calibration_left_unknown_as_its_uncertainty(ca
     assert len(tighter) >= 2, tighter
 
 
+@pytest.mark.slow
 def test_a_record_in_a_draught_against_the_calibrated_file_is_a_heat_loss_finding(calibrated):
     """The calibrated file's tightened priors reveal what the description's absorb."""
     from tca_ros.diagnosis import diagnose, format_summary

@@ -75,6 +75,7 @@ def test_a_dead_time_is_told_from_a_sensor_lag_and_moves_the_temperature_too(lag
     assert np.max(np.abs(first - second)) > 1.0  # K
 
 
+@pytest.mark.slow
 def test_a_second_thermal_lag_with_a_thermometer_is_named_without_the_sensor_lag(tmp_path):
     # seed 9141 of the confusion benchmark: a 3.83 s second thermal lag, rod plant, 5 Hz,
     # thermometer on, jittered stamps (read on the clock they scatter around, z = 7.3:

@@ -35,6 +35,7 @@ def _truth(spec):
         'moduli.shear_modulus': 0.8 * params.moduli.shear_modulus})
 
 
+@pytest.mark.slow
 def test_a_sibling_s_calibrated_thread_predicts_another_muscle_s_other_power_better():
     rng = np.random.default_rng(4)
     wide = [bench_record(_truth(WIDE), w, 0.02, rng, drift=0.0) for w in (0.3, 0.6)]

@@ -129,6 +129,7 @@ def test_an_air_flow_is_a_condition_with_its_own_heat_loss_scale():
                                                            rel=0.25)
 
 
+@pytest.mark.slow
 def test_a_diagnosis_against_a_still_air_calibration_says_a_fan_is_more_heat_loss(tmp_path):
     # calibrated on three still-air steps; two steps under a fan taking 2.8x the heat away
     # (no environment in their header) are diagnosed against that file: the refit lowers
@@ -291,6 +292,7 @@ def test_simulate_warns_when_a_calibrated_muscle_runs_past_its_calibration(
     assert 'extrapolates' not in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_a_spring_rig_record_calibrates_and_is_predicted(tmp_path):
     # the muscle on a 20 N/m series spring pulling 0.1 N at rest (the rig's full dynamics),
     # logged with its displacement and the gauge's force: calibrated from it alone, the

@@ -1,5 +1,6 @@
 """Where the residual of a calibration or an unexplained verdict sits: one moment or all."""
 import numpy as np
+import pytest
 
 from tca_ros.calibration.where import residual_window, window_note
 from tca_ros.records.record import Record
@@ -32,6 +33,7 @@ def test_a_moment_is_found_in_its_record_and_a_spread_error_is_not_reported():
     assert residual_window(records, [np.zeros(r.time.size) for r in records]) is None
 
 
+@pytest.mark.slow
 def test_a_reading_that_jumps_for_five_seconds_is_unexplained_and_located(tmp_path):
     """A clean record of a described muscle (seed 9102: cst plant, 2 Hz, coloured noise,
     drift) is adequate; the same record with its displacement reading 2 mm low from 100 s

@@ -253,12 +253,21 @@ def best_joint(fits, problems, nominals, nominal_rmse):
     decisions G84). The others that pass too are returned, best first, so the
     report can say the records do not tell them apart.
     """
-    def lowers(fit):
-        return lowers_heldout_rms(problems, fit.sims, nominal_rmse)
-
+    lowers = rms_rule(problems, nominal_rmse)
     ok = [f for f in fits if not f.barred and f.claimed and explains(f, lowers)]
     ok.sort(key=lambda f: f.weighed, reverse=True)
     return (ok[0], ok[1:]) if ok else (None, [])
+
+
+def rms_rule(problems, nominal_rmse):
+    """Return fit -> True when the fit's sims lower the held-out RMS of ``nominal_rmse``.
+
+    :func:`lowers_heldout_rms` on ``problems``, the search's RMS rule as
+    :func:`explains` takes it.
+    """
+    def lowers(fit):
+        return lowers_heldout_rms(problems, fit.sims, nominal_rmse)
+    return lowers
 
 
 def explains(fit, lowers_rms):
@@ -281,9 +290,8 @@ def joint_extension(calibrate_with, problems, nominals, cal, candidates, rounds,
     with the ``extra`` effect names) are calibrated jointly one at a time; when
     none is taken, or the single taken leaves a finding (:func:`leaves_finding`), the
     pairs of pair_order, a pair replacing such a single only when it leaves none;
-    best_joint decides each time, and
-    unresolved_rivals lists the family members it set apart only by the
-    structure test. When a fit the description admits explains the records
+    best_joint decides each time, and unresolved_rivals lists the family members
+    it set apart only by the structure test. When a fit the description admits explains the records
     decisively best (:func:`described_lead`), nothing is taken and the outcome
     holds it. A fit that leaves a value its own effect moves the other way
     (JointFit.undone, G83) is taken nowhere; the outcome lists those that pass
@@ -306,10 +314,7 @@ def joint_extension(calibrate_with, problems, nominals, cal, candidates, rounds,
         if joint is None or (pair is not None and not leaves_finding(pair)):
             joint, rivals, fits = pair, pair_rivals, pairs
         every += pairs
-
-    def lowers(fit):
-        return lowers_heldout_rms(problems, fit.sims, nominal_rmse)
-
+    lowers = rms_rule(problems, nominal_rmse)
     # what best_joint would have taken but for a value its effects move the other way,
     # and what explains the records but for a value at the end of its range or refuted
     undone = sorted((f for f in every if f.undone and not (f.pinned or f.refuted)

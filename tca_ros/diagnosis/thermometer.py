@@ -44,7 +44,7 @@ def thermometer_refutes(names, values, problems, base_sims, sims, candidates):
     if CHANNEL not in problems[0].channels or not names \
             or not all(n in THROUGH_TEMPERATURE for n in names):
         return []
-    if any(low <= values.get(p, low - 1.0) <= high for c in candidates if c.name in names
+    if any(p in values and low <= values[p] <= high for c in candidates if c.name in names
            for p, (low, high, _) in c.measured.items()):
         return []
     before, after = (pooled_heldout_rmse(problems, s, [CHANNEL], detrend=True)[CHANNEL]

@@ -201,6 +201,20 @@ def _field_name(key):
     return key
 
 
+def _layout():
+    """Return {group: [(dotted name, key, dataclass field)]} of SCHEMA, in schema order."""
+    layout = {group: [] for group in _GROUPS}
+    for spec in SCHEMA:
+        head, _, key = spec.name.partition('.')
+        if head in layout:
+            layout[head].append((spec.name, key, _FIELDS.get(spec.name) or _field_name(key)))
+    return layout
+
+
+#: The schema's parameters of each group, read once (with_values runs per fit step).
+_LAYOUT = _layout()
+
+
 def muscle_at_rest(params):
     """Return (``params`` starting at rest, a header line saying so or '').
 
@@ -233,15 +247,13 @@ def from_flat_dict(values, source=''):
     groups = {}
     for group, cls in _GROUPS.items():
         kwargs = {}
-        for name, value in checked.items():
-            head, _, key = name.partition('.')
-            if head != group:
-                continue
+        for name, key, attribute in _LAYOUT[group]:
+            value = checked[name]
             if key in _DEG:
                 value = math.radians(value)
             if isinstance(value, list):
                 value = tuple(value)
-            kwargs[_FIELDS.get(name) or _field_name(key)] = value
+            kwargs[attribute] = value
         groups[group] = cls(**kwargs)
     groups['coil'] = resolve_reference(groups['coil'], groups['dynamics'].load)
     params = TcaParams(tca_type=checked['tca_type'], model=checked['model'],
@@ -255,16 +267,13 @@ def to_flat_dict(params):
     out = {'tca_type': params.tca_type, 'model': params.model}
     for group in _GROUPS:
         obj = getattr(params, group)
-        for spec in SCHEMA:
-            head, _, key = spec.name.partition('.')
-            if head != group:
-                continue
-            value = getattr(obj, _FIELDS.get(spec.name) or _field_name(key))
+        for name, key, attribute in _LAYOUT[group]:
+            value = getattr(obj, attribute)
             if key in _DEG:
                 value = math.degrees(value)
             if isinstance(value, tuple):
                 value = list(value)
-            out[spec.name] = value
+            out[name] = value
     return out
 
 
