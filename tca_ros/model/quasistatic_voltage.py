@@ -56,7 +56,6 @@ def voltage_drive(plant, time, power, acting, creep):
     substeps = None if balance.linear else qe.rk4_substeps(
         intervals, VOLTAGE_POWER_MARGIN * nominal[:-1], balance)
     y_eq = np.empty(n)
-    stiffness = np.empty(n)
     position = y_eq  # m, the end as R(T, x) sees it: with friction, the play output
     if effects.friction_force > 0.0:
         position = np.empty(n)
@@ -69,18 +68,18 @@ def voltage_drive(plant, time, power, acting, creep):
         if entry is None or t_fiber > entry[0] + entry[1] * (entry[2].size - 2):
             high = max(top, t_fiber + MAP_EXTENSION)
             grid = np.arange(plant.ambient - MAP_MARGIN, high, VOLTAGE_TABLE_STEP)
-            y, k = plant.lookup(load, grid)
-            entry = tables[load] = (float(grid[0]), VOLTAGE_TABLE_STEP, y, k)
+            entry = tables[load] = (float(grid[0]), VOLTAGE_TABLE_STEP,
+                                    plant.lookup(load, grid)[0])
         return entry
 
     def lookup(load, t_fiber):
         if not math.isfinite(t_fiber):
             raise ArithmeticError(f'voltage supply: temperature {t_fiber!r} degC')
-        g0, dg, y, k = table(load, t_fiber)
+        g0, dg, y = table(load, t_fiber)
         u = max((t_fiber - g0) / dg, 0.0)
         i = min(int(u), y.size - 2)
         w = u - i
-        return y[i] + w * (y[i + 1] - y[i]), k[i] + w * (k[i + 1] - k[i])
+        return y[i] + w * (y[i + 1] - y[i])  # m, y_eq (the stop in contact)
 
     def advance(k, inverse_r):
         drive = nominal[k] * e.resistance * inverse_r  # W, logged: P R0 / R(T, x)
@@ -93,9 +92,9 @@ def voltage_drive(plant, time, power, acting, creep):
         fiber[k + 1] = lag_step(fiber[k], temp[k + 1], intervals[k], lag)
         if actuation is not fiber:
             actuation[k + 1] = fx.play_operator(fiber[k + 1], actuation[k], width)
-        y_eq[k + 1], stiffness[k + 1] = lookup(float(acting[k + 1]), actuation[k + 1])
+        y_eq[k + 1] = lookup(float(acting[k + 1]), actuation[k + 1])
         if position is not y_eq:  # friction: the end stays in its band (no lag here)
-            band = [lookup(float(acting[k + 1]) + offset, actuation[k + 1])[0]
+            band = [lookup(float(acting[k + 1]) + offset, actuation[k + 1])
                     for offset in plant.friction_offsets()]
             position[k + 1] = fx.friction_play(position[k], band[:2], band[2:])
 
@@ -105,8 +104,8 @@ def voltage_drive(plant, time, power, acting, creep):
             raise ArithmeticError(f'voltage supply: resistance {r:g} ohm is not positive')
         return 1.0 / r
 
-    y_eq[0], stiffness[0] = lookup(float(acting[0]), fiber[0])
-    position[0] = lookup(float(acting[0]) + start_load, fiber[0])[0]
+    y_eq[0] = lookup(float(acting[0]), fiber[0])
+    position[0] = lookup(float(acting[0]) + start_load, fiber[0])
     for k in range(n - 1):
         # Heun: the power of each interval is the mean of 1/R at its two ends
         first = inverse_resistance(k)
