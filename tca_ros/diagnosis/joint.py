@@ -286,18 +286,17 @@ def joint_extension(calibrate_with, problems, nominals, cal, candidates, rounds,
                     extra=()):
     """Return the JointOutcome: the JointFit taken or None, its rivals and unresolved rivals.
 
-    Singles first, then pairs: the search's first-round candidates (joint_order,
-    with the ``extra`` effect names) are calibrated jointly one at a time; when
-    none is taken, or the single taken leaves a finding (:func:`leaves_finding`), the
-    pairs of pair_order, a pair replacing such a single only when it leaves none;
-    best_joint decides each time, and unresolved_rivals lists the family members
-    it set apart only by the structure test. When a fit the description admits explains the records
-    decisively best (:func:`described_lead`), nothing is taken and the outcome
-    holds it. A fit that leaves a value its own effect moves the other way
-    (JointFit.undone, G83) is taken nowhere; the outcome lists those that pass
-    every other rule, for the report, and so those that explain the records but
-    for a value at the end of its range or refuted by a measurement (JointFit.pinned,
-    JointFit.refuted). Arguments as
+    Singles first, then pairs: the search's first-round candidates (joint_order, with
+    the ``extra`` effect names) are calibrated jointly one at a time; when none is
+    taken, or the single taken leaves a finding (:func:`leaves_finding`), the pairs of
+    pair_order, a pair replacing such a single only when it leaves none; best_joint
+    decides each time, and unresolved_rivals lists the family members it set apart only
+    by the structure test. When a fit the description admits explains the records
+    decisively best (:func:`described_lead`), nothing is taken and the outcome holds it.
+    A fit that leaves a value its own effect moves the other way (JointFit.undone, G83)
+    is taken nowhere; the outcome lists those that pass every other rule, for the
+    report, and so those that explain the records but for a value at the end of its
+    range or refuted by a measurement (JointFit.pinned, JointFit.refuted). Arguments as
     joint_calibrations and best_joint; ``rounds`` are the search's SearchRounds.
     """
     fits = joint_calibrations(calibrate_with, problems, nominals, cal, candidates,
