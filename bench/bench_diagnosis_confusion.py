@@ -95,7 +95,8 @@ def _diagnosis(paths, description):
     try:
         r = diagnose(paths if len(paths) > 1 else paths[0], description, progress=False)
     except Exception as exc:  # a failure is a row of the table, not the end of the run
-        return {'found': [f'error: {type(exc).__name__}'], 'helpful': [], 'verdict': 'error',
+        return {'found': [f'error: {type(exc).__name__}'], 'rivals': {}, 'helpful': [],
+                'verdict': 'error',
                 'findings': [], 'notes': [str(exc)[:200]], 'spreads': {},
                 'drift_shifts': [], 'cpu': time.process_time() - t0, 'jointly': fired}
     finally:
@@ -105,7 +106,8 @@ def _diagnosis(paths, description):
                 if cal is not None else [])
     spreads = ({row.name: round(float(row.z), 2) for row in cal.plausibility()}
                if cal is not None else {})
-    return {'found': list(r.effects), 'helpful': list(r.helpful), 'verdict': r.verdict,
+    return {'found': list(r.effects), 'rivals': {k: list(v) for k, v in r.rivals.items()},
+            'helpful': list(r.helpful), 'verdict': r.verdict,
             'findings': findings, 'notes': list(r.notes), 'spreads': spreads,
             'drift_shifts': sorted(cal.drift_shifts) if cal is not None else [],
             'cpu': time.process_time() - t0, 'jointly': fired}
@@ -169,6 +171,20 @@ def right(row):
     absorbable = {h for h in hidden if row['tightness'] in ABSORBABLE.get(h, ())
                   or h in row.get('admitted', ())}
     return bool(absorbable) and found == set(hidden) - absorbable
+
+
+def right_or_open(row):
+    """Return True when a row is right, or right with one named effect read as its open rival.
+
+    The diagnosis names an effect and says these records cannot tell it from a rival
+    (its ``rivals``: DiagnosisResult.rivals, 'a or b' in the verdict): the row counts
+    when swapping one named effect for one of its open rivals makes it right.
+    """
+    if right(row):
+        return True
+    found, rivals = list(row['found']), row.get('rivals') or {}
+    return any(right({**row, 'found': found[:i] + [b] + found[i + 1:]})
+               for i, a in enumerate(found) for b in rivals.get(a, ()))
 
 
 def rival_noted(row):
@@ -235,6 +251,11 @@ def print_tables(rows):
              skip_empty=True)
     line('single, right or the truth a noted rival', lambda r: r['family'] == 'single',
          good=lambda r: right(r) or rival_noted(r))
+    if any('rivals' in r for r in rows):  # rows saved before the verdict said open rivals
+        for family in ('single', 'pair'):
+            line(f'{family}, right or the truth an open rival',
+                 lambda r, f=family: r['family'] == f and 'rivals' in r, good=right_or_open,
+                 skip_empty=True)
     # the oracle of effect_shows: can the verdict's test see the hidden effect at all?
     if any(r.get('effect_shows') is not None for r in rows):
         line('single, its effect shows', lambda r: r['family'] == 'single'

@@ -229,6 +229,10 @@ def test_a_second_lag_on_a_commanded_power_is_a_lag_with_its_rival_not_a_dead_ti
     else:
         said = [n for n in result.notes if 'second_thermal_lag are rivals' in n]
         assert said and 'separates them' in said[0], result.notes
+        # the verdict says the choice is open: 'sensor_lag or second_thermal_lag'
+        assert result.rivals == {'sensor_lag': ['second_thermal_lag']}
+        assert 'sensor_lag or second_thermal_lag: these records cannot tell which' \
+            in result.explanation
 
 
 def test_the_power_logged_header_names_what_the_power_column_is(tmp_path):
@@ -400,3 +404,22 @@ def test_the_benchmark_prints_the_tables_of_saved_rows(tmp_path, capsys):
     assert bench.main(['--tables', str(tmp_path / 'missing.json')]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("--tables '") and 'missing.json' in err[0]
+
+
+def test_an_open_rival_holding_the_truth_counts_only_in_its_own_line_of_the_table():
+    # the verdict 'second_thermal_lag or sensor_lag: these records cannot tell which'
+    # on a hidden sensor lag is not right, and right up to the rival the records leave
+    # open; a rival outside the truth, or on a null, is neither
+    bench = _bench_module('bench_diagnosis_confusion')
+    row = {'family': 'single', 'hidden': ['sensor_lag'], 'found': ['second_thermal_lag'],
+           'rivals': {'second_thermal_lag': ['sensor_lag']}, 'tightness': 'exact',
+           'verdict': 'explained', 'admitted': []}
+    assert not bench.right(row) and bench.right_or_open(row)
+    assert not bench.right_or_open({**row, 'rivals': {'second_thermal_lag': ['dead_time']}})
+    assert not bench.right_or_open({**row, 'rivals': {}})
+    pair = {**row, 'family': 'pair', 'hidden': ['radiation', 'creep'],
+            'found': ['nonlinear_convection', 'creep'],
+            'rivals': {'nonlinear_convection': ['radiation']}}
+    assert bench.right_or_open(pair)
+    null = {**row, 'family': 'null', 'hidden': []}
+    assert not bench.right_or_open(null)

@@ -6,6 +6,8 @@ from tca_ros.diagnosis import family_rivals as rivals_module, joint
 from tca_ros.diagnosis.family_rivals import family_rivals
 from tca_ros.diagnosis.joint import DECISIVE_DEVIANCE, JointFit
 from tca_ros.diagnosis.joint_text import set_aside_note
+from tca_ros.diagnosis.rivals import rival_note, undecided_rivals
+from tca_ros.diagnosis.verdict_text import rivals_clause
 
 
 def _candidate(name, dotted):
@@ -308,3 +310,48 @@ def test_an_explanation_at_the_end_of_its_range_or_refuted_is_set_aside_and_said
                                     criterion=1.0, explained=True,
                                     pinned=[('effects.sensor_lag', 3.0, 3.0)])])
     assert 'effects.sensor_lag = 3 s, the end' in unit
+
+
+def _note(named, rival):
+    return rival_note(f'{"+".join(named)} and {"+".join(rival)} are rivals',
+                      SimpleNamespace(effects=tuple(named)), SimpleNamespace(effects=tuple(rival)))
+
+
+def test_the_verdict_reads_its_open_rivals_from_the_notes_of_its_own_named_fit():
+    notes = ['a plain note', _note(('second_thermal_lag',), ('sensor_lag',)),
+             _note(('second_thermal_lag',), ('dead_time',)),
+             _note(('dead_time',), ('sensor_lag',))]  # of a fit later replaced: not read
+    assert all(isinstance(n, str) for n in notes)  # a rival note is a note like any other
+    assert undecided_rivals(['second_thermal_lag'], notes) == {
+        'second_thermal_lag': ['sensor_lag', 'dead_time']}
+    assert undecided_rivals(['sensor_lag'], notes) == {}
+    assert undecided_rivals([], notes) == {}
+    # a pair: the one member swapped for its rival; a swap outside the family is none
+    softening = 'modulus_softening'
+    pair = [_note(('radiation', softening), ('nonlinear_convection', softening)),
+            _note(('radiation', softening), ('radiation', 'creep'))]
+    assert undecided_rivals([softening, 'radiation'], pair) == {
+        'radiation': ['nonlinear_convection']}
+    text = rivals_clause({'second_thermal_lag': ['sensor_lag']})
+    assert text.startswith('; second_thermal_lag or sensor_lag: these records cannot tell which')
+    assert rivals_clause({}) == ''
+
+
+def test_a_rival_that_replaces_the_search_effect_has_its_own_equal_rivals_said(monkeypatch):
+    said = []
+
+    def experiment_notes(named, rivals, equal=None):
+        close = [f for f in rivals if f.criterion >= named.criterion - DECISIVE_DEVIANCE]
+        said.append((named.name, [f.name for f in close]))
+        return [f'{named.name} and {f.name} are rivals' for f in close]
+
+    fits = [_fit('dead_time', 209.8), _fit('second_thermal_lag', 230.3),
+            _fit('sensor_lag', 227.8)]
+    monkeypatch.setattr(rivals_module, 'joint_calibrations', lambda *a, **k: fits)
+    monkeypatch.setattr(rivals_module, 'lowers_heldout_rms', lambda problems, sims, rmse: True)
+    monkeypatch.setattr(rivals_module, 'rival_experiment_notes', experiment_notes)
+    taken, notes = family_rivals(None, [], [], None, CANDIDATES, 'dead_time', {})
+    assert taken.name == 'second_thermal_lag'
+    # the search's own fit is decisively worse than the one taken: not its rival
+    assert said == [('second_thermal_lag', ['sensor_lag'])]
+    assert notes[-1] == 'second_thermal_lag and sensor_lag are rivals'

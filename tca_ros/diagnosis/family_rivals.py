@@ -28,6 +28,8 @@ def family_rivals(calibrate_with, problems, nominals, cal, candidates, found, no
     DECISIVE_DEVIANCE: the search refits the nominal parameters narrowly, so its
     pick can be the lag that the shifted damping let in, not the one the records ask
     for (a 0.22 s sensor lag at 2 Hz was named dead time, gains 766 against 266).
+    The other rivals within DECISIVE_DEVIANCE of the one that replaces it are its
+    own rivals, said with the experiment that would separate them.
     ``found``: the effect's name, or the names of a pair the search named; a pair's
     rivals are the pairs with one member swapped for one of its rivals (G49).
     """
@@ -62,7 +64,7 @@ def family_rivals(calibrate_with, problems, nominals, cal, candidates, found, no
                       f'nominal parameters, {gains} against {own.criterion:.1f} for '
                       f'{found}: {best.name} is named, its gain larger by more than '
                       f'{DECISIVE_DEVIANCE:g} (docs/diagnosis_method.md, "Family rivals")'
-                      ] + refuted
+                      ] + refuted + rival_experiment_notes(best, [own, *passing[1:]])
     against = f' against {own.criterion:.1f} for {found}' if own is not None else ''
     notes = [f'{found} is named by the search; also explained, calibrated jointly: '
              f'{gains}{against}: these records tell them apart only by that gain'] + refuted

@@ -22,9 +22,10 @@ from tca_ros.diagnosis.joint import JOINT_NFEV
 from tca_ros.diagnosis.nominal import calibrate_training_part, candidates_of, DiagnosisError, \
     nominal_with_fallback, read_any, record_nominal, set_aside_drift_shifts
 from tca_ros.diagnosis.parameter_names import NOMINAL_NAMES
+from tca_ros.diagnosis.rivals import undecided_rivals
 from tca_ros.diagnosis.search import MIN_GAIN_PERCENT
 from tca_ros.diagnosis.verdict import gain, holds_one_load, needs_explaining, ONE_LOAD_NOTE
-from tca_ros.diagnosis.verdict_text import not_taken_note
+from tca_ros.diagnosis.verdict_text import not_taken_note, rivals_clause
 from tca_ros.records.data import DataError, record_config
 
 VERDICTS = ('explained', 'adequate', 'unexplained')
@@ -70,6 +71,10 @@ class DiagnosisResult:
     calibrated_file: str = None  # params file of `tca_sim calibrate` taken as the nominal
     #: {calibration name: (value, unit)} of the calibrated params file, else empty
     calibrated_values: dict = field(default_factory=dict)
+    #: {named effect: [its rivals]}: rivals that explain these records as well, which
+    #: only another experiment tells apart (rivals.undecided_rivals); the verdict is
+    #: 'effect or rival'
+    rivals: dict = field(default_factory=dict)
 
     @property
     def muscle(self):
@@ -108,6 +113,7 @@ class DiagnosisResult:
         nominal = self.rounds[0].base_rmse['displacement'] if self.rounds else math.nan
         return {
             'effects': list(self.effects),
+            'rivals': {k: list(v) for k, v in self.rivals.items()},
             'helpful': list(self.helpful),
             'records': list(self.records),
             'model': self.model,
@@ -272,6 +278,8 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
         # what helps is shown, but an effect that leaves structure is not a cause (unless
         # the description's findings name it decisively: found, with structure beside it)
         helpful, effects = list(effects), []
+    rivals = undecided_rivals(effects, notes)  # the named effects' open rivals
+    explanation += rivals_clause(rivals)
     result = DiagnosisResult(
         record=record, config=config, model=model, params=params,
         extended_params=problem.parameters(values), effects=effects, helpful=helpful,
@@ -285,7 +293,8 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
         verdict=verdict, explanation=explanation, elapsed=0.0,
         n_simulations=bar.count, untestable=[c.name for c in candidates if not c.starts],
         config_from_header=from_header, calibrated_file=calibrated,
-        calibrated_values=_file_values(calibrated, params, config, model))
+        calibrated_values=_file_values(calibrated, params, config, model),
+        rivals=rivals)
     result.elapsed = wallclock.perf_counter() - start
     if report_dir:
         from tca_ros.diagnosis.report import write_report

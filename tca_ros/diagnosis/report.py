@@ -12,7 +12,7 @@ import numpy as np
 from tca_ros.calibration.physical_priors import JOINT_Z, SHIFT_Z
 from tca_ros.diagnosis import plots
 from tca_ros.diagnosis.parameter_names import nominal_value
-from tca_ros.diagnosis.summary import heldout_text, nominal_lines
+from tca_ros.diagnosis.summary import effects_text, heldout_text, nominal_lines
 from tca_ros.diagnosis.verdict import gain
 from tca_ros.model.tca_params import muscle_at_rest
 from tca_ros.params.files import dump_params
@@ -178,7 +178,7 @@ def write_markdown(result, report_dir, figures):
             f'{c} {_fmt(s)} {"m" if c == "displacement" else "K"}'
             for c, s in result.sigma.items()),
         '', f'## Verdict: **{result.verdict}**', '', result.explanation + '.', '',
-        'Effects found, in order: ' + (', '.join(f'`{e}`' for e in result.effects)
+        'Effects found, in order: ' + (effects_text(result, lambda e: f'`{e}`')
                                        if result.effects else 'none') + '.', '',
         '| held-out RMSE | nominal | extended | gain |', '|---|---|---|---|']
     for c in result.nominal_rmse:

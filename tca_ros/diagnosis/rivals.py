@@ -86,6 +86,48 @@ def unresolved_note(named, near):
         'apart']
 
 
+class RivalNote(str):
+    """A report note on two rivals these records do not tell apart; a str like every note.
+
+    ``named`` and ``rival``: the effect names (tuples) of the JointFit taken and of
+    its rival. :func:`undecided_rivals` reads them back from a diagnosis's notes, so
+    the verdict says 'X or Y' where the records leave the choice open.
+    """
+
+    named = ()
+    rival = ()
+
+
+def rival_note(text, named, rival):
+    """Return ``text`` as a RivalNote of JointFits ``named`` and ``rival``."""
+    note = RivalNote(text)
+    note.named, note.rival = tuple(named.effects), tuple(rival.effects)
+    return note
+
+
+def undecided_rivals(effects, notes):
+    """Return {effect: [rivals]}: the named ``effects``' rivals the records leave open.
+
+    From the RivalNotes among ``notes`` whose named fit is ``effects`` (the effects
+    the diagnosis names, in any order): each rival differs from them by one member
+    swapped (:func:`swapped_rival`), and that member's rival is listed under it.
+    Empty when the records told every rival apart. The note on a fit the diagnosis
+    later replaced (a rival taken instead, an effect below the floor dropped) is not
+    read: its named effects are no longer the diagnosis's.
+    """
+    out = {}
+    for note in notes:
+        if not isinstance(note, RivalNote) or set(note.named) != set(effects):
+            continue
+        swapped = [(a, b) for a in note.named if a not in note.rival
+                   for b in note.rival if b not in note.named]
+        if len(swapped) == 1 and swapped[0][1] in rivals_of(swapped[0][0]):
+            a, b = swapped[0]
+            if b not in out.setdefault(a, []):
+                out[a].append(b)
+    return out
+
+
 def rival_experiment(named, rival):
     """Return the Experiment separating two JointFits, or None (no calibration to simulate).
 
@@ -121,6 +163,7 @@ def rival_experiment_notes(named, rivals, equal=None):
         e = rival_experiment(named, rival)
         if e is None:
             continue
-        notes.append(f'{named.name} and {rival.name} are rivals: calibrated jointly, each fits '
-                     f'these records; {e.sentence()}')
+        notes.append(rival_note(f'{named.name} and {rival.name} are rivals: calibrated '
+                                f'jointly, each fits these records; {e.sentence()}',
+                                named, rival))
     return notes

@@ -96,7 +96,7 @@ def format_summary(result):
     lines.append('')
     own = {k: v for k, v in result.extended_values.items() if _is_effect(k)}
     if result.effects:
-        lines.append('effects found: ' + ', '.join(result.effects))
+        lines.append('effects found: ' + effects_text(result))
         lines.append('  ' + '; '.join(_format_value(k, v) for k, v in own.items()))
     else:
         lines.append('effects found: none')
@@ -120,6 +120,19 @@ def format_summary(result):
                      f'{result.extended_params_path}; {result.json_path}')
     lines.append(f'{result.n_simulations} simulations, {result.elapsed:.1f} s')
     return '\n'.join(lines)
+
+
+def effects_text(result, mark=str):
+    """Return the named effects, each with its open rivals: 'a (or b: undecided), c'.
+
+    ``mark`` formats a name (the report's markdown wraps it in backticks).
+    """
+    out = []
+    for effect in result.effects:
+        others = result.rivals.get(effect, [])
+        out.append(mark(effect) + (f' (or {" or ".join(map(mark, others))}: these records '
+                                   'cannot tell which)' if others else ''))
+    return ', '.join(out)
 
 
 def _format_criterion(score):

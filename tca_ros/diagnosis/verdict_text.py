@@ -146,6 +146,20 @@ def found_sentence(effects, stats, evidence):
             f'({channels_text(stats)}), so something else acts too')
 
 
+def rivals_clause(rivals):
+    """Return the verdict's clause on rivals the records leave open, '' without any.
+
+    ``rivals``: {named effect: [rivals]} (rivals.undecided_rivals), e.g. ';
+    second_thermal_lag or sensor_lag: these records cannot tell which, and a note
+    names the experiment that would'.
+    """
+    if not rivals:
+        return ''
+    options = '; '.join(' or '.join([named, *others]) for named, others in rivals.items())
+    return (f'; {options}: these records cannot tell which, and a note names the '
+            'experiment that would')
+
+
 def not_taken_note(rounds, min_gain_percent):
     """Return the note on the first round's best unaccepted candidate, or None.
 
