@@ -23,7 +23,7 @@ from tca_ros.synthetic.generator import make_synthetic_record
 DURATION_S = 150.0  # long enough for creep retardation times up to 60 s
 RATE_HZ = 20.0
 EFFECTS = list(CATALOGUE)
-JSON_KEYS = {'effects', 'helpful', 'records', 'model', 'calibrated', 'candidates',
+JSON_KEYS = {'effects', 'rivals', 'helpful', 'records', 'model', 'calibrated', 'candidates',
              'nominal_heldout_rmse', 'extended_heldout_rmse', 'gain_percent',
              'extended_params', 'verdict'}
 
@@ -109,6 +109,7 @@ def test_report_files_schema_and_determinism(tmp_path):
     second = _diagnose(path, report_dir=str(tmp_path / 'b'))
     doc = json.loads((tmp_path / 'a' / 'diagnosis.json').read_text())
     assert set(doc) == JSON_KEYS
+    assert doc['rivals'] == {k: list(v) for k, v in first.rivals.items()}
     assert doc['effects'] == ['power_loss'] and doc['verdict'] == 'explained'
     for cand in doc['candidates']:
         assert set(cand) == {'name', 'params', 'heldout_rmse', 'gain_percent'}
