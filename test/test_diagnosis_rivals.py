@@ -7,6 +7,7 @@ from tca_ros.diagnosis.family_rivals import family_rivals
 from tca_ros.diagnosis.joint import DECISIVE_DEVIANCE, JointFit
 from tca_ros.diagnosis.joint_text import set_aside_note
 from tca_ros.diagnosis.rivals import rival_note, undecided_rivals
+from tca_ros.diagnosis.summary import effects_text
 from tca_ros.diagnosis.verdict_text import rivals_clause
 
 
@@ -355,3 +356,13 @@ def test_a_rival_that_replaces_the_search_effect_has_its_own_equal_rivals_said(m
     # the search's own fit is decisively worse than the one taken: not its rival
     assert said == [('second_thermal_lag', ['sensor_lag'])]
     assert notes[-1] == 'second_thermal_lag and sensor_lag are rivals'
+
+
+def test_the_summary_and_the_report_name_each_effect_with_its_open_rivals():
+    result = SimpleNamespace(effects=['second_thermal_lag', 'creep'],
+                             rivals={'second_thermal_lag': ['sensor_lag']})
+    assert effects_text(result) == ('second_thermal_lag (or sensor_lag: these records cannot '
+                                    'tell which), creep')
+    assert effects_text(result, lambda e: f'`{e}`').startswith(
+        '`second_thermal_lag` (or `sensor_lag`: ')
+    assert effects_text(SimpleNamespace(effects=['creep'], rivals={})) == 'creep'
