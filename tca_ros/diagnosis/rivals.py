@@ -109,8 +109,9 @@ def undecided_rivals(effects, notes):
     """Return {effect: [rivals]}: the named ``effects``' rivals the records leave open.
 
     From the RivalNotes among ``notes`` whose named fit is ``effects`` (the effects
-    the diagnosis names, in any order): each rival differs from them by one member
-    swapped (:func:`swapped_rival`), and that member's rival is listed under it.
+    the diagnosis names, in any order): a rival that differs from them by one member
+    swapped for one of its family rivals (:func:`rivals_of`) is listed under that
+    member.
     Empty when the records told every rival apart. The note on a fit the diagnosis
     later replaced (a rival taken instead, an effect below the floor dropped) is not
     read: its named effects are no longer the diagnosis's.

@@ -123,7 +123,7 @@ def format_summary(result):
 
 
 def effects_text(result, mark=str):
-    """Return the named effects, each with its open rivals: 'a (or b: undecided), c'.
+    """Return the named effects with their open rivals: 'a (or b: these records ...), c'.
 
     ``mark`` formats a name (the report's markdown wraps it in backticks).
     """
