@@ -353,7 +353,7 @@ def test_a_rival_that_replaces_the_search_effect_has_its_own_equal_rivals_said(m
     monkeypatch.setattr(rivals_module, 'rival_experiment_notes', experiment_notes)
     taken, notes = family_rivals(None, [], [], None, CANDIDATES, 'dead_time', {})
     assert taken.name == 'second_thermal_lag'
-    # the search's own fit is decisively worse than the one taken: not its rival
+    # the search's own fit, decisively worse than the one taken, is not its rival
     assert said == [('second_thermal_lag', ['sensor_lag'])]
     assert notes[-1] == 'second_thermal_lag and sensor_lag are rivals'
 

@@ -64,7 +64,7 @@ def family_rivals(calibrate_with, problems, nominals, cal, candidates, found, no
                       f'nominal parameters, {gains} against {own.criterion:.1f} for '
                       f'{found}: {best.name} is named, its gain larger by more than '
                       f'{DECISIVE_DEVIANCE:g} (docs/diagnosis_method.md, "Family rivals")'
-                      ] + refuted + rival_experiment_notes(best, [own, *passing[1:]])
+                      ] + refuted + rival_experiment_notes(best, passing[1:])
     against = f' against {own.criterion:.1f} for {found}' if own is not None else ''
     notes = [f'{found} is named by the search; also explained, calibrated jointly: '
              f'{gains}{against}: these records tell them apart only by that gain'] + refuted
