@@ -10,8 +10,10 @@ and in the joint stage (docs/diagnosis_method.md, "Family rivals of a named effe
 """
 from tca_ros.diagnosis.joint import joint_calibrations, lowers_heldout_rms
 from tca_ros.diagnosis.joint_groups import calibratable
-from tca_ros.diagnosis.rivals import DECISIVE_DEVIANCE, rival_experiment_notes, rivals_of, \
-    unresolved_note, unresolved_rivals
+from tca_ros.diagnosis.one_load import actuation_gain_z, GAIN_DOWN_Z, gain_took_up_softening
+from tca_ros.diagnosis.rivals import DECISIVE_DEVIANCE, ONE_LOAD_SOFTENING, \
+    rival_experiment_notes, rivals_of, unresolved_note, unresolved_rivals
+from tca_ros.diagnosis.verdict import holds_one_load
 
 
 def family_rivals(calibrate_with, problems, nominals, cal, candidates, found, nominal_rmse):
@@ -31,18 +33,27 @@ def family_rivals(calibrate_with, problems, nominals, cal, candidates, found, no
     The other rivals within DECISIVE_DEVIANCE of the one that replaces it are its
     own rivals, said with the experiment that would separate them.
     ``found``: the effect's name, or the names of a pair the search named; a pair's
-    rivals are the pairs with one member swapped for one of its rivals (G49).
+    rivals are the pairs with one member swapped for one of its rivals (G49). On one
+    load, an effect whose joint fit keeps an actuation gain the calibration moved down
+    has modulus softening as a rival too (:func:`softening_swaps`, G88), whatever its
+    family.
     """
     by_name = {n: c for n, c in calibratable(candidates).items() if c.starts}
     named = (found,) if isinstance(found, str) else tuple(found)
     swaps = [named[:i] + (rival,) + named[i + 1:] for i, effect in enumerate(named)
              for rival in by_name if rival in rivals_of(effect) and rival not in named]
-    if not swaps or any(n not in by_name for n in named):
+    softening = softening_swaps(problems, cal, named, by_name)
+    if not (swaps or softening) or any(n not in by_name for n in named):
         return None, []
-    fits = joint_calibrations(calibrate_with, problems, nominals, cal, candidates,
-                              [tuple(by_name[n] for n in group) for group in [named] + swaps])
+
+    def calibrated(groups):
+        return joint_calibrations(calibrate_with, problems, nominals, cal, candidates,
+                                  [tuple(by_name[n] for n in group) for group in groups])
+    fits = calibrated([named] + swaps)
     found = ' + '.join(named)
     own = next((f for f in fits if f.name == found), None)
+    if softening and keeps_gain_down(own):  # the softening the kept gain may hide (G88)
+        fits = fits + calibrated(softening)
     passing = sorted((f for f in fits if f.name != found and f.explained and not f.barred
                       and f.criterion > 0.0
                       and lowers_heldout_rms(problems, f.sims, nominal_rmse)),
@@ -71,6 +82,36 @@ def family_rivals(calibrate_with, problems, nominals, cal, candidates, found, no
     if own is None:
         return None, notes
     return None, notes + unresolved_note(own, near) + rival_experiment_notes(own, passing + near)
+
+
+def softening_swaps(problems, cal, named, by_name):
+    """Return the groups ``named`` with one member swapped for modulus softening, or [].
+
+    On one load a softening modulus bends the stroke-temperature relation as a lower
+    actuation gain does (one_load.py). When the calibration moved the gain down by
+    more than GAIN_DOWN_Z prior spreads, an effect the search names beside that
+    lowered gain may be standing in for the softening the gain took up; the softening
+    is then its rival (decisions G88), calibrated only if the named effect's own
+    joint fit keeps the gain down too (:func:`keeps_gain_down`).
+    """
+    if (cal is None or not problems or ONE_LOAD_SOFTENING in named
+            or ONE_LOAD_SOFTENING not in by_name
+            or not holds_one_load([p.record for p in problems])
+            or not gain_took_up_softening(cal)):
+        return []
+    return [named[:i] + (ONE_LOAD_SOFTENING,) + named[i + 1:] for i in range(len(named))]
+
+
+def keeps_gain_down(fit):
+    """Return True when JointFit ``fit`` left the actuation gain over GAIN_DOWN_Z spreads down.
+
+    An effect whose joint calibration returns the gain to the description has
+    explained the move; one that keeps it down leaves it for a softening to explain.
+    """
+    if fit is None or fit.calibration is None:
+        return False
+    moved = actuation_gain_z(fit.calibration)
+    return moved is not None and moved < -GAIN_DOWN_Z
 
 
 def decisive_despite_structure(named, passing, near):

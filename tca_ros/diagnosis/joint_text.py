@@ -6,7 +6,7 @@ Each sentence names the fit and the figure it rests on (docs/diagnosis_method.md
 "Joint calibration").
 """
 from tca_ros.diagnosis.joint import WITHIN_DESCRIPTION
-from tca_ros.diagnosis.rivals import rival_experiment_notes, unresolved_note
+from tca_ros.diagnosis.rivals import DECISIVE_DEVIANCE, rival_experiment_notes, unresolved_note
 from tca_ros.model.params_schema import SPECS
 
 
@@ -30,7 +30,10 @@ def joint_notes(joint, rivals, searched, near=()):
 
     ``rivals``: the others that explain too (best_joint); ``near``: those only the
     structure test set apart (unresolved_rivals). Each is said with the experiment
-    that would separate it from the one taken (rivals.py).
+    that would separate it from the one taken (rivals.py): each rival within
+    DECISIVE_DEVIANCE of the fit taken on the figure that chose it, the penalised
+    held-out gain less what it moves the described values by (JointFit.weighed, G84),
+    is one these records leave open (G88).
     """
     left = f' with {" + ".join(searched)}' if searched else ''
     pair = len(joint.effects) > 1
@@ -52,7 +55,8 @@ def joint_notes(joint, rivals, searched, near=()):
             + '; these records tell them apart only by that gain and by how far each moves '
             'what the description states (a power loss the delivered power, an ambient offset '
             'the room, radiation or convection the heat loss), z^2 in its prior spreads')
-    return notes + unresolved_note(joint, near) + rival_experiment_notes(joint, [*rivals, *near])
+    return notes + unresolved_note(joint, near) + rival_experiment_notes(
+        joint, [*rivals, *near], equal=lambda f: f.weighed >= joint.weighed - DECISIVE_DEVIANCE)
 
 
 def _weighed(fit):

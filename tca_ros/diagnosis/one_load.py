@@ -37,11 +37,12 @@ from tca_ros.diagnosis.findings import weigh_finding_effect
 from tca_ros.diagnosis.joint import DECISIVE_DEVIANCE, joint_calibrations, lowers_heldout_rms
 from tca_ros.diagnosis.joint_groups import calibratable
 from tca_ros.diagnosis.noise import STRUCTURE_ALPHA
+from tca_ros.diagnosis.rivals import ONE_LOAD_SOFTENING
 from tca_ros.diagnosis.search import MIN_GAIN_PERCENT
 from tca_ros.diagnosis.verdict import pooled_heldout_rmse
 
 #: the effect a one-load record lets the calibrated nominal values absorb
-RIVAL = 'modulus_softening'
+RIVAL = ONE_LOAD_SOFTENING
 #: prior spreads the calibrated actuation gain must have moved down (-) to name the
 #: softening: a coil that softens as it heats stretches under its load, so less stroke
 #: is left at temperature, which a lower gain takes up (decisions G58)

@@ -30,6 +30,9 @@ FAMILIES = (LAG_EFFECTS, ('hysteresis', 'friction'),
 #: the heating a lag rounds the stroke and a play operator holds it until its band is
 #: crossed; sampled slower than that (1 Hz), both read as the stroke behind the nominal
 HELD_BEHIND = (LAG_EFFECTS, ('hysteresis', 'friction'))
+#: on one load, the rival of an effect named beside an actuation gain moved down: a
+#: modulus that softens with temperature, which that gain may have taken up (one_load.py)
+ONE_LOAD_SOFTENING = 'modulus_softening'
 
 
 def rivals_of(name):
@@ -110,8 +113,9 @@ def undecided_rivals(effects, notes):
 
     From the RivalNotes among ``notes`` whose named fit is ``effects`` (the effects
     the diagnosis names, in any order): a rival that differs from them by one member
-    swapped for one of its family rivals (:func:`rivals_of`) is listed under that
-    member.
+    swapped for one of its family rivals (:func:`rivals_of`) or for modulus softening
+    (ONE_LOAD_SOFTENING, which a calibrated gain hides on one load: G55, G88) is
+    listed under that member.
     Empty when the records told every rival apart. The note on a fit the diagnosis
     later replaced (a rival taken instead, an effect below the floor dropped) is not
     read: its named effects are no longer the diagnosis's.
@@ -122,7 +126,8 @@ def undecided_rivals(effects, notes):
             continue
         swapped = [(a, b) for a in note.named if a not in note.rival
                    for b in note.rival if b not in note.named]
-        if len(swapped) == 1 and swapped[0][1] in rivals_of(swapped[0][0]):
+        if len(swapped) == 1 and (swapped[0][1] in rivals_of(swapped[0][0])
+                                  or swapped[0][1] == ONE_LOAD_SOFTENING):
             a, b = swapped[0]
             if b not in out.setdefault(a, []):
                 out[a].append(b)
