@@ -33,7 +33,7 @@ def joint_notes(joint, rivals, searched, near=()):
     that would separate it from the one taken (rivals.py): each rival within
     DECISIVE_DEVIANCE of the fit taken on the figure that chose it, the penalised
     held-out gain less what it moves the described values by (JointFit.weighed, G84),
-    is one these records leave open (G88).
+    is one these records leave open (G89).
     """
     left = f' with {" + ".join(searched)}' if searched else ''
     pair = len(joint.effects) > 1
