@@ -10,7 +10,7 @@ and in the joint stage (docs/diagnosis_method.md, "Family rivals of a named effe
 """
 from tca_ros.diagnosis.joint import joint_calibrations, lowers_heldout_rms
 from tca_ros.diagnosis.joint_groups import calibratable
-from tca_ros.diagnosis.one_load import actuation_gain_z, GAIN_DOWN_Z, gain_took_up_softening
+from tca_ros.diagnosis.one_load import gain_took_up_softening
 from tca_ros.diagnosis.rivals import DECISIVE_DEVIANCE, ONE_LOAD_SOFTENING, \
     rival_experiment_notes, rivals_of, unresolved_note, unresolved_rivals
 from tca_ros.diagnosis.verdict import holds_one_load
@@ -108,10 +108,8 @@ def keeps_gain_down(fit):
     An effect whose joint calibration returns the gain to the description has
     explained the move; one that keeps it down leaves it for a softening to explain.
     """
-    if fit is None or fit.calibration is None:
-        return False
-    moved = actuation_gain_z(fit.calibration)
-    return moved is not None and moved < -GAIN_DOWN_Z
+    return fit is not None and fit.calibration is not None \
+        and gain_took_up_softening(fit.calibration)
 
 
 def decisive_despite_structure(named, passing, near):
