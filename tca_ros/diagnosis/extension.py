@@ -19,6 +19,8 @@ from tca_ros.diagnosis.findings import explain_findings, finding_effects, findin
 from tca_ros.diagnosis.joint import beats_nominal, joint_extension, WITHIN_DESCRIPTION
 from tca_ros.diagnosis.joint_text import described_note, joint_notes, set_aside_note, \
     undone_note
+from tca_ros.diagnosis.most_of_structure import most_of_structure_text, \
+    takes_most_of_structure
 from tca_ros.diagnosis.one_load import gain_took_up_softening, predictable_below_floor, \
     RIVAL as ONE_LOAD_RIVAL, softening_on_one_load
 from tca_ros.diagnosis.search import MIN_GAIN_PERCENT, search_effects
@@ -278,6 +280,12 @@ def second_opinions(nominal, calibrate_with, effects, values, extendeds, rounds,
         else:
             effects, values, extendeds, found = [], dict(nominal.start_values), nominal.sims, False
             rmse, stats, verdict, explanation = nominal.judged(effects, values, extendeds)
+    if (verdict == 'unexplained' and effects and not found
+            and takes_most_of_structure(nominal.stats, stats)):
+        # a cause, though not all of it: what remains is a tenth of what was (G91)
+        found = True
+        explanation = found_sentence(effects, stats,
+                                     most_of_structure_text(nominal.stats, stats))
     return effects, values, extendeds, (rmse, stats, verdict, explanation), found
 
 

@@ -1,0 +1,68 @@
+"""Effects that take away most of the structure are named beside what remains (decisions G91)."""
+import pytest
+
+from tca_ros.calibration.residuals import ResidualStats
+from tca_ros.diagnosis.most_of_structure import most_of_structure_text, MOST_SHARE, \
+    takes_most_of_structure
+from tca_ros.diagnosis.noise import STRUCTURE_ALPHA, StructureTest
+from tca_ros.diagnosis.verdict_text import found_sentence
+
+UNITS = {'displacement': 'm', 'temperature': 'K'}
+
+
+def _stat(channel, predictable, floor):
+    """Return ResidualStats whose structure test predicts ``predictable`` above ``floor``."""
+    test = StructureTest(p_value=0.1 * STRUCTURE_ALPHA, predictable_rms=predictable,
+                         noise_rms=floor, floor=floor, ar_order=1, n=200)
+    return ResidualStats(channel, UNITS[channel], predictable, floor, 1.0, 0.0, 0.0, 0.0,
+                         0.5, 0.5, 0.1, 0.0, 0.0, 0.0, structure=test)
+
+
+def _stats(**channels):
+    """Return {channel: ResidualStats} from channel=(predictable, floor)."""
+    return {c: _stat(c, *v) for c, v in channels.items()}
+
+
+def test_a_dead_time_that_takes_nine_tenths_of_each_channel_is_named():
+    # seed 9841 (a 1.59 s dead time, rod plant described as cst): 3.6 mm -> 0.37 mm of
+    # displacement, 21 K -> 0.56 K of temperature predicted by the inputs
+    nominal = _stats(displacement=(3.6e-3, 230e-6), temperature=(21.1, 1.02))
+    extended = _stats(displacement=(0.372e-3, 230e-6), temperature=(0.56, 1.02))
+    assert extended['displacement'].structured and not extended['temperature'].structured
+    assert takes_most_of_structure(nominal, extended)
+    text = most_of_structure_text(nominal, extended)
+    assert 'displacement 99 %' in text and 'temperature 100 %' in text
+    sentence = found_sentence(['dead_time'], extended, text)
+    assert sentence.startswith('dead_time found: they take away')
+    assert 'something else acts too' in sentence
+
+
+@pytest.mark.parametrize('left', [0.67, 0.79, 0.945])
+def test_an_effect_that_leaves_most_of_the_structure_is_not_named(left):
+    # what the catalogue's best did beside a sensor nonlinearity, a fatigue, a hysteresis
+    nominal = _stats(displacement=(1e-3, 1e-4))
+    extended = _stats(displacement=(left * 1e-3, 1e-4))
+    assert not takes_most_of_structure(nominal, extended)
+
+
+def test_the_share_is_a_tenth_of_the_variance_on_either_side():
+    nominal = _stats(displacement=(1e-3, 1e-5))
+    assert takes_most_of_structure(nominal, _stats(displacement=(0.99 * MOST_SHARE * 1e-3,
+                                                                 1e-5)))
+    assert not takes_most_of_structure(nominal, _stats(displacement=(1.01 * MOST_SHARE * 1e-3,
+                                                                     1e-5)))
+
+
+def test_a_channel_made_worse_keeps_the_effects_unnamed():
+    # seed 9653 (a fatigue): the convection exponent took a third off the displacement
+    # and made the temperature structured where the nominal model left it within its floor
+    nominal = _stats(displacement=(1.25e-3, 0.54e-3), temperature=(1.2, 2.16))
+    extended = _stats(displacement=(0.05e-3, 0.54e-3), temperature=(2.2, 2.16))
+    assert not nominal['temperature'].structured and extended['temperature'].structured
+    assert not takes_most_of_structure(nominal, extended)
+
+
+def test_nothing_is_taken_where_the_nominal_model_left_the_held_out_part_unstructured():
+    nominal = _stats(displacement=(1e-5, 1e-4))
+    extended = _stats(displacement=(0.0, 1e-4))
+    assert not takes_most_of_structure(nominal, extended)
