@@ -244,10 +244,26 @@ def test_a_heat_loss_finding_stands_for_a_power_loss_with_or_without_tau():
     # power loss the priors let the heat capacity follow part of the way (findings.py
     # tests each as the cause)
     from tca_ros.calibration.physical_priors import stands_for, TAU_STEADY_Z
-    assert stands_for('heat_loss', 2.4, 0.5 * TAU_STEADY_Z) == ('power_loss',)
+    assert stands_for('heat_loss', 2.4, 0.5 * TAU_STEADY_Z) == ('power_loss', 'ambient_offset')
     moved = stands_for('heat_loss', 2.4, -2.3)
-    assert set(moved) == {'radiation', 'nonlinear_convection', 'power_loss'}
+    assert set(moved) == {'radiation', 'nonlinear_convection', 'power_loss', 'ambient_offset'}
     assert stands_for('heat_loss', 2.4) == moved  # tau not calibrated: every reading
+
+
+def test_a_heat_loss_moved_either_way_may_be_a_room_other_than_described():
+    # G90: on the convex stroke-temperature relation of eq. (2) a warmer room strokes more
+    # per watt, and without a thermometer the calibration takes it up in the heat loss as
+    # in the gain; on the confusion benchmark's 20 ambient offsets (one record, exact)
+    # every warmer room moved the loss down (-0.5 to -2.5 spreads), every colder one up
+    # (+0.1 to +3.0). Seed 10030 (+5.5 K, cst plant, 100 Hz): the loss -2.4 spreads,
+    # tested only as a convection exponent, and `unexplained`
+    from tca_ros.calibration.physical_priors import moves_the_other_way, stands_for, \
+        TAU_STEADY_Z
+    for tau_z in (0.5 * TAU_STEADY_Z, -2.3, None):
+        assert 'ambient_offset' in stands_for('heat_loss', -2.4, tau_z)
+        assert 'ambient_offset' in stands_for('heat_loss', 2.4, tau_z)
+        assert 'ambient_offset' not in moves_the_other_way('heat_loss', -2.4, tau_z)
+    assert stands_for('heat_loss', -2.4, 0.5 * TAU_STEADY_Z) == ('ambient_offset',)
 
 
 def test_a_finding_stands_for_the_effects_that_move_its_value_its_way_only():
@@ -256,8 +272,9 @@ def test_a_finding_stands_for_the_effects_that_move_its_value_its_way_only():
     # nonlinearity, outside the catalogue): the actuation gain +2.9 spreads only, and a
     # softening (which lowers the stroke) was named from it
     from tca_ros.calibration.physical_priors import stands_for, TAU_STEADY_Z
-    assert stands_for('heat_loss', -2.4, 0.5 * TAU_STEADY_Z) == ()  # more power than stated
-    assert stands_for('heat_loss', -2.4, -2.3) == ('nonlinear_convection',)
+    # more power than stated, or a warmer room (G90)
+    assert stands_for('heat_loss', -2.4, 0.5 * TAU_STEADY_Z) == ('ambient_offset',)
+    assert stands_for('heat_loss', -2.4, -2.3) == ('nonlinear_convection', 'ambient_offset')
     assert 'modulus_softening' in stands_for('actuation_gain', -2.5)
     assert stands_for('actuation_gain', 2.9) == ('ambient_offset',)
     assert stands_for('stiffness_scale', 3.4) == ()  # stiffer than described

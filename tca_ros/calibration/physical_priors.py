@@ -209,10 +209,13 @@ STANDS_FOR = {
     'expansion_plateau_temperature': {-1: ('modulus_softening',)},
 }
 #: the heat loss, read with the time constant (:func:`stands_for`)
+#: an ambient offset either way: on the convex stroke-temperature relation of eq. (2) a
+#: warmer room strokes more per watt, which a calibration takes up as a higher steady rise
+#: (the loss down) as well as a higher gain, a colder room the reverse (decisions G90)
 HEAT_LOSS_STANDS_FOR = {
-    'steady': {1: ('power_loss',)},
-    'moved': {1: ('radiation', 'nonlinear_convection', 'power_loss'),
-              -1: ('nonlinear_convection',)},
+    'steady': {1: ('power_loss', 'ambient_offset'), -1: ('ambient_offset',)},
+    'moved': {1: ('radiation', 'nonlinear_convection', 'power_loss', 'ambient_offset'),
+              -1: ('nonlinear_convection', 'ambient_offset')},
 }
 TAU_STEADY_Z = 1.0  # |z| of the time constant below which it counts as unchanged
 
@@ -230,7 +233,9 @@ def stands_for(name, z, tau_z=None):
     power loss that the priors let the heat capacity follow only part of the way (a
     23 % loss described to 4 %: heat loss +6.1 spreads, heat capacity +2.8, tau
     0.87 x); a loss moved down with tau only a convection exponent makes (the loss
-    falls below the reference rise where n > 0).
+    falls below the reference rise where n > 0). Either way, and with tau or without,
+    it may be a room other than described (an ambient offset: a warmer room moves the
+    loss down, a colder one up).
     """
     sign = 1 if z > 0.0 else -1
     if name == 'heat_loss':

@@ -15,7 +15,7 @@ from tca_ros.diagnosis.described import admitted_effects
 from tca_ros.diagnosis.effect_size import below_floor, below_floor_note
 from tca_ros.diagnosis.family_rivals import decisive_despite_structure, family_rivals
 from tca_ros.diagnosis.findings import explain_findings, finding_effects, findings_rival, \
-    found_text, unexplained_findings
+    found_text, own_readings, unexplained_findings
 from tca_ros.diagnosis.joint import beats_nominal, joint_extension, WITHIN_DESCRIPTION
 from tca_ros.diagnosis.joint_text import described_note, joint_notes, set_aside_note, \
     undone_note
@@ -237,9 +237,10 @@ def second_opinions(nominal, calibrate_with, effects, values, extendeds, rounds,
     rmse, stats, verdict, explanation = at_bounds(judgement, effects, values, nominal,
                                                   extendeds, witnessed=not on_findings)
     if (verdict == 'explained' and joint is None and cal is not None and named_by_findings
-            and not set(effects) & set(named_by_findings)):
-        # the search explained the records with effects none of the findings stand for:
-        # the findings' own effects, calibrated jointly, are its rivals (findings.py)
+            and not set(effects) & set(own_readings(cal))):
+        # the search explained the records with effects none of the findings stand for
+        # (a room only as a heat loss's second reading, G90): the findings' own effects,
+        # calibrated jointly, are its rivals (findings.py)
         added = len([k for k in values if k not in nominal.start_values])
         taken, said = findings_rival(calibrate_with, nominal.problems, nominal.sims, cal,
                                      nominal.candidates, effects, extendeds, added)

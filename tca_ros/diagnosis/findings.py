@@ -23,7 +23,10 @@ and it **explains the finding** when
    (k the effect's parameters, n_eff the calibration's effective samples: BIC);
 3. it predicts the held-out part no worse than the shifted nominal model beyond
    one such penalty, D >= -k ln n (verdict.heldout_deviance, D the held-out
-   deviance gain under the verdict's noise model over n samples);
+   deviance gain under the verdict's noise model over n samples), unless its
+   findings are all the room the thermometer reads at rest: that measurement is
+   the evidence, and the nominal model, whose heat loss takes up the room, may
+   predict the held-out part better (decisions G92);
 4. it leaves no structure by the verdict's test and no parameter at the end of
    its range.
 
@@ -48,12 +51,16 @@ from dataclasses import dataclass
 import math
 
 from tca_ros.calibration.calibration import ROOM
+from tca_ros.calibration.candidates import STATED_OFFSETS
 from tca_ros.calibration.physical_priors import JOINT_Z, NO_EFFECT_MOVES_IT, SHIFT_Z
 from tca_ros.diagnosis.joint import changed_values, DECISIVE_DEVIANCE, joint_calibrations, \
     lowers_heldout_rms, WITHIN_DESCRIPTION
 from tca_ros.diagnosis.joint_groups import calibratable
 from tca_ros.diagnosis.rivals import rival_experiment_notes
 from tca_ros.diagnosis.verdict import heldout_deviance, pooled_heldout_rmse
+
+HEAT_LOSS = 'heat_loss'  # the calibration's name of the conductance h A_0 (W/K)
+ROOM_EFFECT = next(iter(STATED_OFFSETS))  # the ambient offset: the room moved (K)
 
 
 @dataclass
@@ -104,6 +111,24 @@ def finding_effects(cal):
     return out
 
 
+def own_readings(cal):
+    """Return finding_effects(cal) less a room read only from a heat-loss shift (G90).
+
+    A room other than described moves the calibrated heat loss through the convex
+    stroke-temperature relation, a second reading of that shift beside the heat-loss
+    shapes and the power loss that move the heat balance itself. An ambient offset
+    the search names is then no reading that makes those effects' joint fits
+    needless: they stay its rivals (:func:`findings_rival`), as before G90.
+    """
+    if cal is None:
+        return []
+    out = []
+    for name, _, effects in sorted(cal.findings(implausible=True), key=lambda f: -abs(f[1])):
+        out += [e for e in effects if e not in out
+                and not (name == HEAT_LOSS and e == ROOM_EFFECT)]
+    return out
+
+
 def _returned(joint, names):
     """Return True when calibrated ``names`` are no finding any more, and plausible.
 
@@ -137,23 +162,27 @@ def weigh_finding_effect(fit, cal, problems, nominals):
             - joint.report.data_cost(ref) - joint.report.prior_cost - penalty)
     deviance, n = heldout_deviance(problems, nominals, fit.sims)
     holds = deviance >= -fit.n_params * math.log(max(n, 2))
-    # a measured value is its own evidence: the fit need only cost the data nothing
+    # a measured value is its own evidence: the fit need only cost the data nothing and,
+    # leaving no structure, need not out-predict a nominal model whose heat loss took
+    # up the room the thermometer reads (decisions G92)
     paid = fall + penalty >= 0.0 if on_measurement(names) else fall > 0.0
-    passes = bool(names and returned and paid and holds and fit.explained
-                  and not fit.barred)
+    passes = bool(names and returned and paid and fit.explained and not fit.barred
+                  and (holds or on_measurement(names)))
     return FindingTest(fit=fit, fall=float(fall), deviance=float(deviance),
                        returned=returned, passes=passes, names=tuple(names), holds=holds,
                        paid=paid, n_heldout=n)
 
 
-def finding_tests(calibrate_with, problems, nominals, cal, candidates):
+def finding_tests(calibrate_with, problems, nominals, cal, candidates, leave_out=()):
     """Return the FindingTests of the effects ``cal``'s findings name, each calibrated jointly.
 
-    Only effects a calibration can fit (not coil contact); None when there is none
-    ([] when each such calibration failed). Arguments as :func:`explain_findings`.
+    Only effects a calibration can fit (not coil contact) and not in ``leave_out``;
+    None when there is none ([] when each such calibration failed). Arguments as
+    :func:`explain_findings`.
     """
     by_name = {n: c for n, c in calibratable(candidates).items() if c.starts}
-    groups = [(by_name[n],) for n in finding_effects(cal) if n in by_name]
+    groups = [(by_name[n],) for n in finding_effects(cal) if n in by_name
+              and n not in leave_out]
     if not groups:
         return None
     fits = joint_calibrations(calibrate_with, problems, nominals, cal, candidates, groups,
@@ -193,11 +222,15 @@ def explain_findings(calibrate_with, problems, nominals, cal, candidates):
     # muscle described (a room at the edge of its stated spread): kept, not named
     taken = (f'its size {WITHIN_DESCRIPTION}, the muscle as described: not named'
              if best.fit.admitted else 'named')
+    predicts = (f'predicts the held-out part as well (deviance {best.deviance:+.1f})'
+                if best.holds else
+                'leaves no structure; the nominal model, its heat loss taking up the room '
+                'the thermometer reads, predicts the held-out part better (deviance '
+                f'{best.deviance:+.1f}), the reading is the evidence (G92)')
     notes = [f'findings {shifted}: {best.name}, calibrated jointly with the nominal '
              f'parameters, brings them back within {SHIFT_Z:g} prior spreads, lowers the '
              f"calibration's objective (data + priors) by {best.fall:.1f} beyond its "
-             f'penalty and predicts the held-out part as well (deviance '
-             f'{best.deviance:+.1f}): {taken} (docs/diagnosis_method.md, "Findings")']
+             f'penalty and {predicts}: {taken} (docs/diagnosis_method.md, "Findings")']
     if len(passing) > 1:
         notes.append('also explaining the findings: ' + ', '.join(
             f'{t.name} (objective fall {t.fall:.1f})' for t in passing[1:])
@@ -330,8 +363,8 @@ def findings_rival(calibrate_with, problems, nominals, cal, candidates, found, s
     nominal beats the search's by more than DECISIVE_DEVIANCE (decisions G57).
     Arguments as :func:`explain_findings`.
     """
-    tests = [t for t in finding_tests(calibrate_with, problems, nominals, cal, candidates) or ()
-             if t.passes]
+    tests = [t for t in finding_tests(calibrate_with, problems, nominals, cal, candidates,
+                                      leave_out=found) or () if t.passes]
     if not tests:
         return None, []
     deviance, n = heldout_deviance(problems, nominals, sims)
