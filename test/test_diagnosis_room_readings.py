@@ -34,15 +34,24 @@ def test_a_room_another_finding_names_stays_an_own_reading():
     assert 'ambient_offset' in own_readings(cal)
 
 
+def _named_at_its_size(tmp_path, seed, effect, parameter, tolerance):
+    """Return the diagnosis of benchmark case ``seed`` after checking it names ``effect``.
+
+    Its ``parameter`` (of EffectParams) within ``tolerance`` (its unit) of the truth.
+    """
+    result, truth = benchmark_case(tmp_path, seed, [effect])
+    assert result.effects == [effect], result.notes
+    assert result.extended_values[f'effects.{parameter}'] == pytest.approx(
+        getattr(truth.effects, parameter), abs=tolerance)
+    return result
+
+
 @pytest.mark.slow
 def test_a_heat_loss_moved_down_by_a_warmer_room_names_the_offset(tmp_path):
     # seed 10030 of the confusion benchmark (cst plant at 100 Hz, no thermometer) hides
     # an ambient offset of +6.3 K. The calibrated nominal model leaves noise, its heat loss
     # 2.4 spreads down; a convection exponent cannot bring it back, the offset does
-    result, truth = benchmark_case(tmp_path, 10030, ['ambient_offset'])
-    assert result.effects == ['ambient_offset'], result.notes
-    assert result.extended_values['effects.ambient_offset'] == pytest.approx(
-        truth.effects.ambient_offset, abs=1.5)
+    result = _named_at_its_size(tmp_path, 10030, 'ambient_offset', 'ambient_offset', 1.5)
     assert any(n.startswith('findings heat_loss') and 'ambient_offset, calibrated jointly'
                in n for n in result.notes), result.notes
 
@@ -52,11 +61,8 @@ def test_an_offset_the_search_names_still_faces_the_heat_balance_readings(tmp_pa
     # seed 10015 (a radiation, emissivity 0.70, cst plant at 100 Hz): the search names an
     # ambient offset (penalised gain 0.4), the heat loss is 2.8 spreads up; radiation,
     # calibrated jointly, predicts the held-out part decisively better and replaces it
-    result, truth = benchmark_case(tmp_path, 10015, ['radiation'])
-    assert result.effects == ['radiation'], result.notes
+    result = _named_at_its_size(tmp_path, 10015, 'radiation', 'emissivity', 0.15)
     assert any('replaces it (decisions G57)' in n for n in result.notes), result.notes
-    assert result.extended_values['effects.emissivity'] == pytest.approx(
-        truth.effects.emissivity, abs=0.15)
 
 
 @pytest.mark.slow
@@ -67,11 +73,8 @@ def test_a_room_the_thermometer_reads_is_named_though_the_shifted_loss_predicts_
     # structure and brings the room back to the thermometer's reading, while the nominal
     # model, whose heat loss took the offset up, predicts the held-out part better
     # (deviance -14.8). The reading is the evidence (decisions G92)
-    result, truth = benchmark_case(tmp_path, 9433, ['ambient_offset'])
-    assert result.effects == ['ambient_offset'], result.notes
+    result = _named_at_its_size(tmp_path, 9433, 'ambient_offset', 'ambient_offset', 1.0)
     assert any('the reading is the evidence (G92)' in n for n in result.notes), result.notes
-    assert result.extended_values['effects.ambient_offset'] == pytest.approx(
-        truth.effects.ambient_offset, abs=1.0)
 
 
 @pytest.mark.slow
@@ -80,9 +83,7 @@ def test_a_dead_time_that_takes_most_of_the_structure_is_named_beside_the_rods_s
     # seed 9841 (a 1.59 s dead time, a rod plant at 5 Hz described as cst): the dead time
     # takes 99 % of the displacement's predictable residual away; what remains is the
     # kinetostatic model's (decisions G91)
-    result, truth = benchmark_case(tmp_path, 9841, ['dead_time'])
-    assert result.effects == ['dead_time'] and result.verdict == 'unexplained', result.notes
+    result = _named_at_its_size(tmp_path, 9841, 'dead_time', 'dead_time', 0.1)
+    assert result.verdict == 'unexplained', result.notes
     assert 'take away at least 90 %' in result.explanation
     assert 'something else acts too' in result.explanation
-    assert result.extended_values['effects.dead_time'] == pytest.approx(
-        truth.effects.dead_time, abs=0.1)
