@@ -191,9 +191,11 @@ NO_EFFECT_MOVES_IT = 'no catalogue effect moves it that way'
 #: and a shift no effect makes stands for none (decisions G82)
 STANDS_FOR = {
     'delivered_power_ratio': {-1: ('power_loss',)},
-    # a slower response: a lag, or a play (hysteresis) the stroke waits out (G54); a
-    # faster one: a loss that grows with the temperature (a shorter tau when hot)
-    'heat_capacity': {1: ('second_thermal_lag', 'sensor_lag', 'dead_time', 'hysteresis'),
+    # a slower response: a lag, or a play the stroke waits out, on the temperature
+    # (hysteresis, G54) or on the end's force (friction, G93); a faster one: a loss that
+    # grows with the temperature (a shorter tau when hot)
+    'heat_capacity': {1: ('second_thermal_lag', 'sensor_lag', 'dead_time', 'hysteresis',
+                          'friction'),
                       -1: ('radiation', 'nonlinear_convection')},
     'stiffness_scale': {-1: ('modulus_softening', 'creep')},
     # on the convex stroke-temperature relation of eq. (2) a warmer room strokes more
