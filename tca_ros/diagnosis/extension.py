@@ -281,13 +281,29 @@ def second_opinions(nominal, calibrate_with, effects, values, extendeds, rounds,
         else:
             effects, values, extendeds, found = [], dict(nominal.start_values), nominal.sims, False
             rmse, stats, verdict, explanation = nominal.judged(effects, values, extendeds)
-    if (verdict == 'unexplained' and effects and not found
-            and takes_most_of_structure(nominal.stats, stats)):
+    if (verdict == 'unexplained' and effects and not found and needs_explaining(stats)
+            and takes_most_of_structure(nominal.stats, stats)
+            and not stands_in(effects, values, nominal, extendeds, not on_findings)):
         # a cause, though not all of it: what remains is a tenth of what was (G91)
         found = True
         explanation = found_sentence(effects, stats,
                                      most_of_structure_text(nominal.stats, stats))
     return effects, values, extendeds, (rmse, stats, verdict, explanation), found
+
+
+def stands_in(effects, values, nominal, extendeds, witnessed=True):
+    """Return True when ``effects`` stand in for another cause by at_bounds' tests.
+
+    A parameter at the end of its physical range, a value a measurement refutes, or
+    (``witnessed``) a heat-balance effect the thermometer reads worse than the
+    calibrated nominal model: such effects are named nowhere, however much
+    structure they take away.
+    """
+    candidates = nominal.candidates
+    return bool(parameters_at_bounds(effects, values, candidates)
+                or contradicted_by_measurement(effects, values, candidates)
+                or (witnessed and thermometer_refutes(effects, values, nominal.problems,
+                                                      nominal.sims, extendeds, candidates)))
 
 
 def described_members(nominal, effects, values):
