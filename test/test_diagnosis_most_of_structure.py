@@ -33,7 +33,7 @@ def test_a_dead_time_that_takes_nine_tenths_of_each_channel_is_named():
     text = most_of_structure_text(nominal, extended)
     assert 'displacement 99 %' in text and 'temperature 100 %' in text
     sentence = found_sentence(['dead_time'], extended, text)
-    assert sentence.startswith('dead_time found: they take away')
+    assert sentence.startswith('dead_time found: it takes away')
     assert 'something else acts too' in sentence
 
 

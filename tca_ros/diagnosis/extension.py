@@ -286,8 +286,8 @@ def second_opinions(nominal, calibrate_with, effects, values, extendeds, rounds,
             and not stands_in(effects, values, nominal, extendeds, not on_findings)):
         # a cause, though not all of it: what remains is a tenth of what was (G91)
         found = True
-        explanation = found_sentence(effects, stats,
-                                     most_of_structure_text(nominal.stats, stats))
+        explanation = found_sentence(effects, stats, most_of_structure_text(
+            nominal.stats, stats, len(effects)))
     return effects, values, extendeds, (rmse, stats, verdict, explanation), found
 
 

@@ -224,9 +224,9 @@ def explain_findings(calibrate_with, problems, nominals, cal, candidates):
              if best.fit.admitted else 'named')
     predicts = (f'predicts the held-out part as well (deviance {best.deviance:+.1f})'
                 if best.holds else
-                'leaves no structure; the nominal model, its heat loss taking up the room '
-                'the thermometer reads, predicts the held-out part better (deviance '
-                f'{best.deviance:+.1f}), the reading is the evidence (G92)')
+                'leaves no structure; the calibrated nominal model predicts the held-out '
+                f'part better (deviance {best.deviance:+.1f}), and the room the '
+                'thermometer read at rest is the evidence (G92)')
     notes = [f'findings {shifted}: {best.name}, calibrated jointly with the nominal '
              f'parameters, brings them back within {SHIFT_Z:g} prior spreads, lowers the '
              f"calibration's objective (data + priors) by {best.fall:.1f} beyond its "

@@ -47,11 +47,12 @@ def takes_most_of_structure(nominal_stats, stats):
     return all(after[c] <= MOST_SHARE * before[c] for c in channels)
 
 
-def most_of_structure_text(nominal_stats, stats):
-    """Return the clause naming effects by the share of structure they take away."""
+def most_of_structure_text(nominal_stats, stats, n_effects=1):
+    """Return the clause naming ``n_effects`` effects by the share of structure taken away."""
     before, after = predictable(nominal_stats), predictable(stats)
     shares = ', '.join(f'{c} {100.0 * (1.0 - (after[c] / before[c]) ** 2):.0f} %'
                        for c in before if c in after and before[c] > 0.0)
-    return (f'they take away at least 90 % of the held-out residual the inputs predicted '
+    subject = 'it takes' if n_effects == 1 else 'they take'
+    return (f'{subject} away at least 90 % of the held-out residual the inputs predicted '
             f'beside the calibrated nominal model ({shares} of its variance; '
             'docs/diagnosis_method.md, "Most of the structure")')
