@@ -247,10 +247,9 @@ def found_despite_structure(calibrate_with, problems, cal, tests):
     ``tests``: every FindingTest of the findings' effects, none passing. The lead
     must return its values, not sit at a bound, lower the objective by more than
     DECISIVE_DEVIANCE beyond its penalty and by more than DECISIVE_DEVIANCE beyond
-    every other effect tested that is a reading of the records (returns the values
-    or predicts the held-out part within its penalty, ``holds``: a friction whose
-    stick-slip fits the training part, leaves the values beyond the description and
-    predicts the held-out part worse by 107 is neither, decisions G94), and predict
+    every other effect tested that explains the findings as the description asks
+    (returns the values: a friction whose stick-slip fits the training part and
+    leaves the values beyond the description does not, decisions G94), and predict
     the held-out part better than the nominal model the description admits
     (:func:`described_nominal`) by the search's rule with the penalty (k + m) ln n (m
     the values held). Its ``over_described`` is set to that penalised gain.
@@ -260,7 +259,7 @@ def found_despite_structure(calibrate_with, problems, cal, tests):
     if not ok or not ok[0].fall > DECISIVE_DEVIANCE:
         return None
     best = ok[0]
-    rest = [t.fall for t in tests if t is not best and (t.returned or t.holds)]
+    rest = [t.fall for t in tests if t is not best and t.returned]
     if rest and not best.fall - max(rest) > DECISIVE_DEVIANCE:
         return None
     sims = described_nominal(calibrate_with, problems, cal, best.names)
@@ -327,7 +326,7 @@ def found_text(test):
     return (f'calibrated jointly with the nominal parameters it brings '
             f'{", ".join(test.names)} back within {SHIFT_Z:g} prior spreads, lowers the '
             f"calibration's objective (data + priors) by {test.fall:.1f} beyond its penalty, "
-            f'more than any other effect they stand for that reads the records (G94) by over '
+            f'more than any other effect they stand for that returns them (G94) by over '
             f'{DECISIVE_DEVIANCE:g}, and '
             f'predicts the held-out part better than the nominal model held at the '
             f'description (penalised held-out gain {test.over_described:.1f}) and '
