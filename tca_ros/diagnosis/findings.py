@@ -96,18 +96,21 @@ def on_measurement(names):
     return bool(names) and all(n == ROOM for n in names)
 
 
-def finding_effects(cal):
+def finding_effects(cal, room_from_heat_loss=True):
     """Return the catalogue effects the findings of Calibration ``cal`` name, largest |z| first.
 
     The findings and the values past their physical limits (an implausible value
     stands in for physics the model lacks: a stiffness of 0.3 x the preset's for a
     modulus that softens). Empty without a calibration or without either.
+    ``room_from_heat_loss`` False leaves out an ambient offset that only a heat-loss
+    finding names (:func:`own_readings`).
     """
     if cal is None:
         return []
     out = []
-    for _, _, effects in sorted(cal.findings(implausible=True), key=lambda f: -abs(f[1])):
-        out += [e for e in effects if e not in out]
+    for name, _, effects in sorted(cal.findings(implausible=True), key=lambda f: -abs(f[1])):
+        out += [e for e in effects if e not in out and (
+            room_from_heat_loss or not (name == HEAT_LOSS and e == ROOM_EFFECT))]
     return out
 
 
@@ -120,13 +123,7 @@ def own_readings(cal):
     the search names is then no reading that makes those effects' joint fits
     needless: they stay its rivals (:func:`findings_rival`), as before G90.
     """
-    if cal is None:
-        return []
-    out = []
-    for name, _, effects in sorted(cal.findings(implausible=True), key=lambda f: -abs(f[1])):
-        out += [e for e in effects if e not in out
-                and not (name == HEAT_LOSS and e == ROOM_EFFECT)]
-    return out
+    return finding_effects(cal, room_from_heat_loss=False)
 
 
 def _returned(joint, names):
