@@ -17,8 +17,8 @@ from tca_ros.diagnosis.family_rivals import decisive_despite_structure, family_r
 from tca_ros.diagnosis.findings import explain_findings, finding_effects, findings_rival, \
     found_text, own_readings, unexplained_findings
 from tca_ros.diagnosis.joint import beats_nominal, joint_extension, WITHIN_DESCRIPTION
-from tca_ros.diagnosis.joint_text import described_note, joint_notes, set_aside_note, \
-    undone_note
+from tca_ros.diagnosis.joint_text import beside_slack_note, described_note, joint_notes, \
+    set_aside_note, undone_note
 from tca_ros.diagnosis.most_of_structure import most_of_structure_text, \
     takes_most_of_structure
 from tca_ros.diagnosis.one_load import gain_took_up_softening, predictable_below_floor, \
@@ -182,9 +182,11 @@ def second_opinions(nominal, calibrate_with, effects, values, extendeds, rounds,
             # on one load a gain moved down may have taken up a softening: the search's
             # screen (a softening added on top of that gain) cannot see it (one_load.py)
             extra.append(ONE_LOAD_RIVAL)
-        joint, rivals, near, described, undone, aside = joint_extension(
+        joint, rivals, near, described, undone, aside, beside = joint_extension(
             calibrate_with, nominal.problems, nominal.sims, cal, nominal.candidates, rounds,
             nominal.drift_free_rmse, extra=extra)
+        if beside and (joint is None or beside[0][0].criterion > joint.criterion):
+            notes.append(beside_slack_note(beside))
         if undone and (joint is None or undone[0].criterion > joint.criterion):
             notes.append(undone_note(undone))
         if aside:  # an explanation set aside: a rival the reader is told of either way

@@ -301,13 +301,14 @@ def joint_extension(calibrate_with, problems, nominals, cal, candidates, rounds,
     """
     fits = joint_calibrations(calibrate_with, problems, nominals, cal, candidates,
                               [(c,) for c in joint_order(rounds, candidates, extra=extra)])
-    every = list(fits)
+    every, beside = list(fits), []
     joint, rivals = best_joint(fits, problems, nominals, nominal_rmse)
     if joint is None or leaves_finding(joint):
         # one effect helps but leaves structure, or explains the records only with a
         # value moved beyond the description: it and a partner
         pairs = joint_calibrations(calibrate_with, problems, nominals, cal, candidates,
                                    pair_order(rounds, candidates, fits, extra), singles=fits)
+        beside = [p for p in pairs if not stands_alone(p, fits)]
         pairs = [p for p in pairs if stands_alone(p, fits)]
         pair, pair_rivals = best_joint(pairs, problems, nominals, nominal_rmse)
         if joint is None or (pair is not None and not leaves_finding(pair)):
@@ -322,11 +323,16 @@ def joint_extension(calibrate_with, problems, nominals, cal, candidates, rounds,
     aside = sorted((f for f in every if (f.pinned or f.refuted) and not f.undone
                     and f.claimed and explains(f, lowers)),
                    key=lambda f: f.criterion, reverse=True)
+    # pairs that explain the records but name a partner only beside the description's slack
+    alone = {f.effects[0]: f.criterion for f in every if len(f.effects) == 1}
+    beside = [(p, {e: alone[e] for e in p.effects if e in alone})
+              for p in sorted(beside, key=lambda f: f.criterion, reverse=True)
+              if p.claimed and not p.barred and explains(p, lowers)]
     described = described_lead(every, joint, lowers)
     if described is not None:
-        return JointOutcome(None, [], [], described, undone, aside)
+        return JointOutcome(None, [], [], described, undone, aside, beside)
     return JointOutcome(joint, rivals, unresolved_rivals(joint, fits, lowers), None, undone,
-                        aside)
+                        aside, beside)
 
 
 class JointOutcome(NamedTuple):
@@ -344,6 +350,10 @@ class JointOutcome(NamedTuple):
     #: the fits that explain the records but for a value at the end of its physical
     #: range or refuted by a measurement (JointFit.pinned, .refuted), best first
     aside: list = ()
+    #: (pair, {member: penalised held-out gain calibrated alone}) of the pairs that
+    #: explain the records but whose partner beside an admitted member did not stand
+    #: alone (:func:`stands_alone`), best first
+    beside: list = ()
 
 
 def described_lead(fits, taken, lowers_rms):
@@ -377,12 +387,20 @@ def stands_alone(pair, singles):
     penalised held-out gain: the lead it was paired from. A partner chosen to
     complement a fit of the description's own slack has not shown it helps (a
     0.031 s sensor lag beside a -7.1 K offset within the stated room and T_z, on the
-    two-load sensor nonlinearity 9059: decisions G66).
+    two-load sensor nonlinearity 9059: decisions G66). Nor has one whose pair
+    predicts the held-out part no more than DECISIVE_DEVIANCE better than the
+    admitted member calibrated alone: the muscle as described, its slack used,
+    which described_lead weighs against an effect by the same margin (a softening
+    of 1.5 MPa/K beside a radiation within the stated heat loss, 53.6 against the
+    radiation's 47.2: decisions G95).
     """
     if not pair.admitted:
         return True
-    helped = {f.effects[0] for f in singles if len(f.effects) == 1 and f.criterion > 0.0}
-    return bool(set(pair.claimed) & helped)
+    alone = {f.effects[0]: f.criterion for f in singles if len(f.effects) == 1}
+    helped = {name for name, criterion in alone.items() if criterion > 0.0}
+    described = [alone[name] for name in pair.admitted if name in alone]
+    return (bool(set(pair.claimed) & helped)
+            and pair.criterion > max(described, default=-math.inf) + DECISIVE_DEVIANCE)
 
 
 def pays_beyond_its_members(effects, criterion, singles):

@@ -105,6 +105,26 @@ def set_aside_note(fits):
         '"Effects at a bound, or refuted by a measurement")')
 
 
+def beside_slack_note(beside):
+    """Return the note on pairs whose partner stood only beside the description's slack.
+
+    ``beside``: JointOutcome.beside (not empty), best first: (pair, {member:
+    penalised held-out gain calibrated alone}); each pair explained the records,
+    one member within what the description states (joint.stands_alone, G66, G95).
+    """
+    def alone(gains):
+        return ', '.join(f'{e} {g:.1f}' for e, g in gains.items()) or 'none calibrated'
+    return '; '.join(
+        f'{f.name}, calibrated jointly with all the nominal parameters, explains the records '
+        f'(penalised held-out gain {f.criterion:.1f}; alone: {alone(gains)}), '
+        + ' and '.join(f.admitted) + ' within what the description states'
+        for f, gains in beside) + (
+        ": beside the description's own slack a partner is named only when it helped alone "
+        f'and the pair predicts the held-out part more than {DECISIVE_DEVIANCE:g} better than '
+        'the admitted member alone; not named (docs/diagnosis_method.md, "Joint '
+        'calibration": pairs)')
+
+
 def _unit(name):
     """Return ' <unit>' of a dotted parameter name, or '' for a number without one."""
     unit = SPECS[name].unit
