@@ -112,6 +112,8 @@ def below_floor(problems, stats, effects, values, extendeds, nominals=None):
     return out
 
 
+#: how below_floor_note ends when no effect is left named
+NOMINAL_VERDICT = "; the verdict is the calibrated nominal model's"
 #: how the note prints each channel (scale, unit)
 PRINTED = {'displacement': (1e6, 'um'), 'temperature': (1.0, 'K'), 'force': (1e3, 'mN')}
 
@@ -124,8 +126,7 @@ def below_floor_note(small, kept):
 
     parts = [f'{name} (' + ', '.join(said(c, *sizes[c]) for c in sizes) + ')'
              for name, sizes in small]
-    then = (f'; {" + ".join(kept)} is named' if kept else
-            "; the verdict is the calibrated nominal model's")
+    then = f'; {" + ".join(kept)} is named' if kept else NOMINAL_VERDICT
     return ('fitted but not named: ' + '; '.join(parts) + ': switched off (a lone effect: '
             'and against the calibrated nominal model), the effect changes the prediction '
             'by no more than 0.5 % of the swing, a residual the '

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 from tca_ros.calibration.candidates import contradicted_by_measurement, parameters_at_bounds
 from tca_ros.calibration.physical_priors import prior_spreads
 from tca_ros.diagnosis.described import admitted_effects
-from tca_ros.diagnosis.effect_size import below_floor, below_floor_note
+from tca_ros.diagnosis.effect_size import below_floor, below_floor_note, NOMINAL_VERDICT
 from tca_ros.diagnosis.family_rivals import decisive_despite_structure, family_rivals
 from tca_ros.diagnosis.findings import explain_findings, finding_effects, findings_rival, \
     found_text, own_readings, unexplained_findings
@@ -85,13 +85,17 @@ class Nominal:
 def run_search(nominal, notes):
     """Return (effects, values, extended sims, rounds) of the greedy effect search.
 
-    No search when the nominal model leaves noise by the verdict's test; an
+    No search when the inputs predict nothing of the nominal model's residual
+    (the structure test's F-test, held-out part and whole record); a residual
+    they predict significantly is searched though it is below the practical
+    floor (G96): small is not noise, and the search's acceptance decides. An
     extension that does not beat the calibrated nominal by the search's own rule
     is dropped with a note.
     """
     problems, start_values = nominal.problems, nominal.start_values
     effects, values, rounds = [], dict(start_values), []
-    if needs_explaining(nominal.stats, nominal.whole_stats):
+    if (needs_explaining(nominal.stats, nominal.whole_stats)
+            or predictable_below_floor(nominal.stats, nominal.whole_stats)):
         effects, values, rounds = search_effects(nominal.problem, nominal.candidates)
     else:  # what the nominal model leaves is noise by the verdict's test: no search
         notes.append(NOTHING_TO_EXPLAIN)
@@ -109,6 +113,34 @@ def run_search(nominal, notes):
                      f'below {MIN_GAIN_PERCENT:g} %)')
         effects, values, extendeds = [], dict(start_values), nominal.sims
     return effects, values, extendeds, rounds
+
+
+#: how a below-floor search's note ends when the diagnosis goes on without it (opinions)
+UNSEARCHED = ('; the diagnosis goes on as if nothing had been searched below the floor '
+              '(decisions G96)')
+
+
+def opinions(nominal, calibrate_with, effects, values, extendeds, rounds, notes):
+    """Return :func:`second_opinions` of the search's outcome, a search below the floor undone.
+
+    A search that ran only because the inputs predict the calibrated nominal model's
+    residual below the practical floor (run_search, G96) counts when the diagnosis
+    ends with an effect named. When it ends with none (its effect too small to name,
+    at a bound, ...), the diagnosis is the unsearched nominal model's (the findings'
+    effects, a softening on one load: what the search's effect would otherwise have
+    pre-empted), with the note on what the search fitted below the floor.
+    """
+    start = len(notes)
+    outcome = second_opinions(nominal, calibrate_with, effects, values, extendeds, rounds,
+                              notes)
+    if not effects or outcome[0] or needs_explaining(nominal.stats, nominal.whole_stats):
+        return outcome
+    said = [n.replace(NOMINAL_VERDICT, UNSEARCHED) for n in notes[start:]
+            if n.startswith('fitted but not named')]
+    del notes[start:]
+    notes.extend(said)
+    return second_opinions(nominal, calibrate_with, [], dict(nominal.start_values),
+                           nominal.sims, [], notes)
 
 
 def at_bounds(judgement, effects, values, nominal, extendeds, witnessed=True):

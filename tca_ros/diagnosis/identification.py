@@ -15,7 +15,7 @@ from tca_ros.calibration.conditions import held_strength
 from tca_ros.calibration.progress import Progress
 from tca_ros.calibration.where import where_notes
 from tca_ros.diagnosis.detectability import detectability_note
-from tca_ros.diagnosis.extension import Nominal, run_search, second_opinions
+from tca_ros.diagnosis.extension import Nominal, opinions, run_search
 from tca_ros.diagnosis.heat_loss_note import heat_loss_note
 from tca_ros.diagnosis.holdout import AUTO, choose_validation, DEFAULT_VALIDATION
 from tca_ros.diagnosis.joint import JOINT_NFEV
@@ -251,7 +251,7 @@ def diagnose(data_path, config=None, report_dir=None, model=None, progress=True,
                                        False, validation, fit=fit, max_nfev=JOINT_NFEV,
                                        start_values=start_values, like=like, drift=True)
     calibrate_with.whole = on_whole_records
-    effects, values, extendeds, judgement, found = second_opinions(
+    effects, values, extendeds, judgement, found = opinions(
         nominal, calibrate_with, effects, values, extendeds, rounds, notes)
     extended_rmse, extended_stats, verdict, explanation = judgement
     unaccepted = None if effects else not_taken_note(rounds, MIN_GAIN_PERCENT)
