@@ -324,7 +324,7 @@ def joint_extension(calibrate_with, problems, nominals, cal, candidates, rounds,
                     and f.claimed and explains(f, lowers)),
                    key=lambda f: f.criterion, reverse=True)
     # pairs that explain the records but name a partner only beside the description's slack
-    alone = {f.effects[0]: f.criterion for f in every if len(f.effects) == 1}
+    alone = gains_alone(every)
     beside = [(p, {e: alone[e] for e in p.effects if e in alone})
               for p in sorted(beside, key=lambda f: f.criterion, reverse=True)
               if p.claimed and not p.barred and explains(p, lowers)]
@@ -396,7 +396,7 @@ def stands_alone(pair, singles):
     """
     if not pair.admitted:
         return True
-    alone = {f.effects[0]: f.criterion for f in singles if len(f.effects) == 1}
+    alone = gains_alone(singles)
     helped = {name for name, criterion in alone.items() if criterion > 0.0}
     described = [alone[name] for name in pair.admitted if name in alone]
     return (bool(set(pair.claimed) & helped)
@@ -415,8 +415,17 @@ def pays_beyond_its_members(effects, criterion, singles):
     do not ask for (a dead time of 0.87 s took nonlinear convection beside it at a
     lower gain, 1219 against 1255: decisions G64).
     """
-    bar = [f.criterion for f in singles if len(f.effects) == 1 and f.effects[0] in effects]
+    bar = [gain for name, gain in gains_alone(singles).items() if name in effects]
     return criterion > max(bar, default=-math.inf)
+
+
+def gains_alone(fits):
+    """Return {effect: its best penalised held-out gain} over the single-effect JointFits."""
+    out = {}
+    for f in fits:
+        if len(f.effects) == 1:
+            out[f.effects[0]] = max(f.criterion, out.get(f.effects[0], -math.inf))
+    return out
 
 
 def leaves_finding(fit):
