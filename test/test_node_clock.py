@@ -25,9 +25,14 @@ def _closed_loop_run(log_dir, tag, *node_args):
     probe = Probe()
     joints = probe.record('joint_states', JointState)
     clocks = probe.record('/clock', Clock)
+    # The probe records every tick beside the loop: a deep joint_states history keeps a
+    # busy machine's probe from losing one while it lags the loop (reliable keep-last
+    # drops what its depth cannot hold; the loop itself waits for each answer)
     tca = start_tca(log_dir, '-p', 'publish_clock:=true', '-p', 'real_time_factor:=0.0',
                     '-p', 'lockstep:=true', '-p', 'noise.displacement:=2e-6',
-                    '-p', 'noise.seed:=7', *node_args, name=f'tca_{tag}')
+                    '-p', 'noise.seed:=7',
+                    '-p', 'qos_overrides./joint_states.publisher.depth:=1000',
+                    *node_args, name=f'tca_{tag}')
     try:
         # Lockstep holds the time at 0 until the controller is there: record from tick 0.
         probe.wait_matched('joint_states', '/clock')
