@@ -69,21 +69,23 @@ def test_nothing_is_taken_where_the_nominal_model_left_the_held_out_part_unstruc
 
 
 def test_an_effect_at_the_end_of_its_range_stands_in_whatever_it_takes_away():
-    # the at_bounds tests hold here too: a dead time fitted at its 5 s limit asks for
+    # at_bounds' tests (standing_in) hold here too: a dead time fitted at its 5 s limit asks for
     # more than a dead time can be, an offset 6 K from the room the thermometer read
     # at rest is not the room
     from types import SimpleNamespace
 
     from tca_ros.calibration.candidates import build_candidates
-    from tca_ros.diagnosis.extension import stands_in
+    from tca_ros.diagnosis.extension import standing_in
     from tca_ros.params.files import load_params
     params = load_params('free_stroke', model='cst')
     candidates = build_candidates(params, 'cst', 0.1, 5e-3,
                                   names=('dead_time', 'ambient_offset'),
                                   initial_temperature=params.thermal.ambient_temperature)
     nominal = SimpleNamespace(candidates=candidates, problems=[], sims=[])
-    assert not stands_in(['dead_time'], {'effects.dead_time': 1.6}, nominal, [], False)
-    assert stands_in(['dead_time'], {'effects.dead_time': 5.0}, nominal, [], False)
-    assert not stands_in(['ambient_offset'], {'effects.ambient_offset': 0.5}, nominal, [],
-                         False)
-    assert stands_in(['ambient_offset'], {'effects.ambient_offset': 6.0}, nominal, [], False)
+    assert standing_in(['dead_time'], {'effects.dead_time': 1.6}, nominal, [], False) is None
+    assert 'end of its physical range' in standing_in(['dead_time'], {'effects.dead_time': 5.0},
+                                                      nominal, [], False)
+    assert standing_in(['ambient_offset'], {'effects.ambient_offset': 0.5}, nominal, [],
+                       False) is None
+    assert 'stands in for another cause' in standing_in(
+        ['ambient_offset'], {'effects.ambient_offset': 6.0}, nominal, [], False)

@@ -146,41 +146,49 @@ def opinions(nominal, calibrate_with, effects, values, extendeds, rounds, notes)
 def at_bounds(judgement, effects, values, nominal, extendeds, witnessed=True):
     """Return ``judgement`` (RMSE, stats, verdict, sentence), 'unexplained' if no cause.
 
-    An 'explained' whose effects have a parameter at the end of its physical
-    range (candidates.parameters_at_bounds), or one a measurement refutes (an
-    ambient offset the thermometer at rest does not read,
-    candidates.contradicted_by_measurement; a heat-balance effect whose
-    ``extendeds`` predict the thermometer worse than ``nominal``'s simulations,
-    thermometer.thermometer_refutes, unless ``witnessed`` is False: effects
-    named on the findings' evidence, joint.joint_calibrations), is no
-    explanation: the effect stands in for another cause.
+    An 'explained' whose effects stand in for another cause (:func:`standing_in`: a
+    parameter at the end of its physical range, a value a measurement refutes) is no
+    explanation.
     """
     if judgement[2] != 'explained':
         return judgement
+    why = standing_in(effects, values, nominal, extendeds, witnessed)
+    return judgement if why is None else judgement[:2] + ('unexplained', why)
+
+
+def standing_in(effects, values, nominal, extendeds, witnessed=True):
+    """Return why ``effects`` stand in for another cause (the verdict's sentence), or None.
+
+    A parameter at the end of its physical range (candidates.parameters_at_bounds),
+    a value a measurement refutes (an ambient offset the thermometer at rest does not
+    read, candidates.contradicted_by_measurement) or, unless ``witnessed`` is False
+    (effects named on the findings' evidence, joint.joint_calibrations), a
+    heat-balance effect whose ``extendeds`` predict the thermometer worse than
+    ``nominal``'s simulations (thermometer.thermometer_refutes): such effects are
+    named nowhere, however much structure they take away.
+    """
     candidates = nominal.candidates
     pinned = parameters_at_bounds(effects, values, candidates)
     if pinned:
-        return judgement[:2] + ('unexplained', 'the effects found leave no structure, but '
-                                + ', '.join(f'{n} = {v:.4g} {SPECS[n].unit}'
-                                            for n, v, _ in pinned)
-                                + ' sits at the end of its physical range: the data ask for '
-                                'more than the effect can be, so it stands in for a cause '
-                                'that is not in the catalogue and is not named')
+        return ('the effects found leave no structure, but '
+                + ', '.join(f'{n} = {v:.4g} {SPECS[n].unit}' for n, v, _ in pinned)
+                + ' sits at the end of its physical range: the data ask for more than the '
+                'effect can be, so it stands in for a cause that is not in the catalogue '
+                'and is not named')
     refuted = contradicted_by_measurement(effects, values, candidates)
     if refuted:
-        return judgement[:2] + ('unexplained', 'the effects found leave no structure, but '
-                                + ', '.join(f'{n} = {v:.4g} {SPECS[n].unit} is outside '
-                                            f'{lo:.4g} to {hi:.4g} from {what}'
-                                            for n, v, lo, hi, what in refuted)
-                                + ': it stands in for another cause and is not named')
+        return ('the effects found leave no structure, but '
+                + ', '.join(f'{n} = {v:.4g} {SPECS[n].unit} is outside {lo:.4g} to {hi:.4g} '
+                            f'from {what}' for n, v, lo, hi, what in refuted)
+                + ': it stands in for another cause and is not named')
     refuted = thermometer_refutes(effects, values, nominal.problems, nominal.sims, extendeds,
                                   candidates) if witnessed else []
     if refuted:
-        return judgement[:2] + ('unexplained', 'the effects found leave no structure, but '
-                                + ', '.join(f'{n} = {v:.4g}' for n, v, _ in refuted)
-                                + f' is refuted by {refuted[0][2]}: it stands in for '
-                                'another cause and is not named')
-    return judgement
+        return ('the effects found leave no structure, but '
+                + ', '.join(f'{n} = {v:.4g}' for n, v, _ in refuted)
+                + f' is refuted by {refuted[0][2]}: it stands in for another cause and is '
+                'not named')
+    return None
 
 
 def second_opinions(nominal, calibrate_with, effects, values, extendeds, rounds, notes):
@@ -317,27 +325,12 @@ def second_opinions(nominal, calibrate_with, effects, values, extendeds, rounds,
             rmse, stats, verdict, explanation = nominal.judged(effects, values, extendeds)
     if (verdict == 'unexplained' and effects and not found and needs_explaining(stats)
             and takes_most_of_structure(nominal.stats, stats)
-            and not stands_in(effects, values, nominal, extendeds, not on_findings)):
+            and standing_in(effects, values, nominal, extendeds, not on_findings) is None):
         # a cause, though not all of it: what remains is a tenth of what was (G91)
         found = True
         explanation = found_sentence(effects, stats, most_of_structure_text(
             nominal.stats, stats, len(effects)))
     return effects, values, extendeds, (rmse, stats, verdict, explanation), found
-
-
-def stands_in(effects, values, nominal, extendeds, witnessed=True):
-    """Return True when ``effects`` stand in for another cause by at_bounds' tests.
-
-    A parameter at the end of its physical range, a value a measurement refutes, or
-    (``witnessed``) a heat-balance effect the thermometer reads worse than the
-    calibrated nominal model: such effects are named nowhere, however much
-    structure they take away.
-    """
-    candidates = nominal.candidates
-    return bool(parameters_at_bounds(effects, values, candidates)
-                or contradicted_by_measurement(effects, values, candidates)
-                or (witnessed and thermometer_refutes(effects, values, nominal.problems,
-                                                      nominal.sims, extendeds, candidates)))
 
 
 def described_members(nominal, effects, values):
