@@ -108,6 +108,7 @@ def _diagnosis(paths, description):
                if cal is not None else {})
     return {'found': list(r.effects), 'rivals': {k: list(v) for k, v in r.rivals.items()},
             'helpful': list(r.helpful), 'verdict': r.verdict,
+            'explanation': r.explanation,
             'findings': findings, 'notes': list(r.notes), 'spreads': spreads,
             'drift_shifts': sorted(cal.drift_shifts) if cal is not None else [],
             'cpu': time.process_time() - t0, 'jointly': fired}

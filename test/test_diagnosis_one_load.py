@@ -129,12 +129,17 @@ def test_a_reading_that_grows_with_the_stroke_is_not_named_a_softening_on_one_lo
     # reading 8 /m x^2 high (outside the catalogue). Calibrated jointly, a softening
     # predicts the held-out part decisively better (penalised gain 52.1), but the
     # calibrated gain moved up (+1.0 spreads), where a softening moves it down: a coil
-    # that softens as it heats stretches under its load and loses stroke (G58)
+    # that softens as it heats stretches under its load and loses stroke (G58). The
+    # calibrated nominal model, though within the practical floor, is beaten on the
+    # held-out part by a fit no catalogue effect accounts for: unexplained (G97)
     record, description, _ = _bench_exact(tmp_path, 9149, ['sensor_nonlinearity'])
     result = diagnose(record, description, progress=False)
-    assert 'modulus_softening' not in result.effects, result.notes
+    assert result.effects == [] and result.verdict == 'unexplained', result.notes
     assert any('did not move down as a softening would move it' in n
                for n in result.notes), result.notes
+    assert 'predicts the held-out part decisively better' in result.explanation
+    assert 'not down by over 1 as a softening moves it' in result.explanation
+    assert 'a shift a softening makes the other way' in result.explanation
 
 
 def test_a_modulus_that_softens_as_it_heats_leaves_less_stroke_under_a_load(tmp_path):

@@ -270,12 +270,14 @@ def second_opinions(nominal, calibrate_with, effects, values, extendeds, rounds,
             and predictable_below_floor(nominal.stats, nominal.whole_stats)):
         # adequate by the practical floor while the inputs still predict the residual:
         # on one load the calibrated gain may hide a softening modulus (one_load.py)
-        taken, said = softening_on_one_load(calibrate_with, nominal.problems, nominal.sims,
-                                            cal, nominal.candidates)
+        taken, said, refuted = softening_on_one_load(calibrate_with, nominal.problems,
+                                                     nominal.sims, cal, nominal.candidates)
         notes.extend(said)
         if taken is not None:
             joint = taken
             effects, values, extendeds, judgement = nominal.adopted(taken)
+        elif refuted is not None:  # beaten decisively on held-out data, by no effect (G97)
+            judgement = judgement[:2] + ('unexplained', refuted)
     rmse, stats, verdict, explanation = at_bounds(judgement, effects, values, nominal,
                                                   extendeds, witnessed=not on_findings)
     if (verdict == 'explained' and joint is None and cal is not None and named_by_findings
