@@ -154,3 +154,48 @@ def test_a_modulus_that_softens_as_it_heats_leaves_less_stroke_under_a_load(tmp_
     strokes = [simulate(truth.with_values(**{'effects.extra_softening': s}), time_s, power,
                         load, model='cst').displacement[-1] for s in (0.0, 8e6)]
     assert strokes[1] < 0.95 * strokes[0], strokes
+
+
+@pytest.mark.parametrize('moved, undone, outcome', [
+    (-1.4, [], 'named'),  # the gain took it up, nothing against it: a softening (G58)
+    (-1.4, [('actuation_gain', 2.6, ('modulus_softening',))], 'unexplained'),
+    (+1.3, [], 'unexplained'),  # the gain moved up: what a softening does not do
+    (+0.3, [], 'rival'),  # no evidence for a softening, none against it: the gain's rival
+    (+0.3, [('actuation_gain', 2.6, ('modulus_softening',))], 'unexplained'),
+])
+def test_a_decisive_softening_the_records_speak_against_makes_the_verdict_unexplained(
+        monkeypatch, moved, undone, outcome):
+    # the one-load rule's outcomes for a softening that beats the calibrated nominal
+    # model decisively on the held-out part (G58, G97), by the calibrated gain's move
+    # and the joint fit's own values; the fits and their scores are stand-ins
+    import tca_ros.diagnosis.one_load as one_load
+    from tca_ros.diagnosis.joint import JointFit
+    fit = JointFit(name='modulus_softening', values={'effects.extra_softening': 7e6},
+                   n_params=1, sims=[], criterion=55.8, explained=True, pinned=[],
+                   undone=undone)
+    candidate = SimpleNamespace(starts=[1.0])
+    cal = SimpleNamespace(
+        plausibility=lambda: [SimpleNamespace(name='actuation_gain', z=moved)],
+        report=SimpleNamespace(values={'actuation_gain': 0.91}))
+    monkeypatch.setattr(one_load, 'calibratable', lambda c: {one_load.RIVAL: candidate})
+    monkeypatch.setattr(one_load, 'joint_calibrations', lambda *a, **k: [fit])
+    monkeypatch.setattr(one_load, 'weigh_finding_effect',
+                        lambda *a: SimpleNamespace(fall=113.4))
+    monkeypatch.setattr(one_load, 'pooled_heldout_rmse',
+                        lambda *a, **k: {'displacement': 30e-6})
+    monkeypatch.setattr(one_load, 'lowers_heldout_rms', lambda *a: True)
+    monkeypatch.setattr(one_load, 'channel_stats', lambda *a: {})
+    monkeypatch.setattr(one_load, 'below_floor', lambda *a: [])
+    monkeypatch.setattr(one_load, '_experiment', lambda *a: None)
+    problems = [SimpleNamespace(channels=['displacement'])]
+    taken, notes, refuted = one_load.softening_on_one_load(None, problems, [], cal, [])
+    got = 'named' if taken is not None else 'unexplained' if refuted else 'rival'
+    assert got == outcome, (notes, refuted)
+    if refuted:
+        assert refuted.startswith('the calibrated nominal model leaves less than the '
+                                  'practical floor, but modulus_softening')
+        assert ('a shift a softening makes the other way' in refuted) == bool(undone)
+    # below the decisive margin nothing is said against the nominal model, whatever moved
+    fit.criterion = 9.0
+    taken, _, refuted = one_load.softening_on_one_load(None, problems, [], cal, [])
+    assert taken is None and refuted is None

@@ -29,10 +29,12 @@ parameters (joint.joint_calibrations) and weighed as a family rival is (G35):
   no structure, has no parameter at a bound and its own part of the prediction is
   above the practical floor (effect_size.below_floor);
 * decisive by the held-out part (gain, objective, RMS, no structure, above the floor)
-  but not named, its gain not moved down or a value of its fit at a bound, refuted
-  or moved the other way beyond the description (G83): the calibrated nominal model
-  is beaten on the held-out part, and not by a softening, so the verdict is
-  ``unexplained`` with nothing named (decisions G97). The stroke-temperature
+  while the records speak against it (a value of its fit at a bound, refuted or moved
+  the other way beyond the description, G83, or the calibrated gain moved up by over
+  GAIN_DOWN_Z spreads): the calibrated nominal model is beaten on the held-out part,
+  and not by a softening, so the verdict is ``unexplained`` with nothing named
+  (decisions G97). A gain that merely did not move leaves the softening the gain's
+  rival, as below. The stroke-temperature
   relation the records hold is one the model lacks: on confusion benchmark 9149 a
   displacement read through x + 8 x^2 moved the gain +1.0 spreads, and a 7 MPa/K
   softening cut the held-out RMS from 34.5 to 19 um with the gain at +2.6 spreads;
@@ -120,6 +122,9 @@ def softening_on_one_load(calibrate_with, problems, nominals, cal, candidates):
                 and not below_floor(problems, channel_stats(problems, nominals), [RIVAL],
                                     fit.values, fit.sims, nominals))
     named = decisive and down and not fit.barred
+    # the records' evidence against a softening: its fit barred (a value at a bound,
+    # refuted, or moved against its own effect, G83) or the gain moved up, not down
+    against = fit.barred or (moved is not None and moved > GAIN_DOWN_Z)
     if gain is None or moved is None:
         absorbed = 'the calibrated nominal values may take up a softening on one load'
     elif down:
@@ -150,7 +155,7 @@ def softening_on_one_load(calibrate_with, problems, nominals, cal, candidates):
                      f'{experiment.sentence()}')
     return OneLoadSoftening(fit if named else None, notes,
                             _refuted_sentence(fit, gain, moved, down)
-                            if decisive and not named else None)
+                            if decisive and against else None)
 
 
 def _refuted_sentence(fit, gain, moved, down):
@@ -160,7 +165,7 @@ def _refuted_sentence(fit, gain, moved, down):
     spreads); ``down``: whether that shift is a softening's (gain_took_up_softening).
     """
     why = []
-    if not down:
+    if not down:  # the context: the gain did not take up a softening
         why.append(f'the calibrated actuation gain ({gain:.4g}) moved {moved:+.1f} prior '
                    f'spreads, not down by over {GAIN_DOWN_Z:g} as a softening moves it'
                    if gain is not None and moved is not None
