@@ -184,11 +184,10 @@ def test_a_decisive_softening_the_records_speak_against_makes_the_verdict_unexpl
     monkeypatch.setattr(one_load, 'pooled_heldout_rmse',
                         lambda *a, **k: {'displacement': 30e-6})
     monkeypatch.setattr(one_load, 'lowers_heldout_rms', lambda *a: True)
-    monkeypatch.setattr(one_load, 'channel_stats', lambda *a: {})
     monkeypatch.setattr(one_load, 'below_floor', lambda *a: [])
     monkeypatch.setattr(one_load, '_experiment', lambda *a: None)
     problems = [SimpleNamespace(channels=['displacement'])]
-    taken, notes, refuted = one_load.softening_on_one_load(None, problems, [], cal, [])
+    taken, notes, refuted = one_load.softening_on_one_load(None, problems, [], cal, [], {})
     got = 'named' if taken is not None else 'unexplained' if refuted else 'rival'
     assert got == outcome, (notes, refuted)
     if refuted:
@@ -197,5 +196,5 @@ def test_a_decisive_softening_the_records_speak_against_makes_the_verdict_unexpl
         assert ('a shift a softening makes the other way' in refuted) == bool(undone)
     # below the decisive margin nothing is said against the nominal model, whatever moved
     fit.criterion = 9.0
-    taken, _, refuted = one_load.softening_on_one_load(None, problems, [], cal, [])
+    taken, _, refuted = one_load.softening_on_one_load(None, problems, [], cal, [], {})
     assert taken is None and refuted is None

@@ -271,7 +271,8 @@ def second_opinions(nominal, calibrate_with, effects, values, extendeds, rounds,
         # adequate by the practical floor while the inputs still predict the residual:
         # on one load the calibrated gain may hide a softening modulus (one_load.py)
         taken, said, refuted = softening_on_one_load(calibrate_with, nominal.problems,
-                                                     nominal.sims, cal, nominal.candidates)
+                                                     nominal.sims, cal, nominal.candidates,
+                                                     nominal.stats)
         notes.extend(said)
         if taken is not None:
             joint = taken

@@ -33,12 +33,11 @@ parameters (joint.joint_calibrations) and weighed as a family rival is (G35):
   the other way beyond the description, G83, or the calibrated gain moved up by over
   GAIN_DOWN_Z spreads): the calibrated nominal model is beaten on the held-out part,
   and not by a softening, so the verdict is ``unexplained`` with nothing named
-  (decisions G97). A gain that merely did not move leaves the softening the gain's
-  rival, as below. The stroke-temperature
-  relation the records hold is one the model lacks: on confusion benchmark 9149 a
-  displacement read through x + 8 x^2 moved the gain +1.0 spreads, and a 7 MPa/K
-  softening cut the held-out RMS from 34.5 to 19 um with the gain at +2.6 spreads;
-  the record had been called ``adequate``;
+  (decisions G97): the records hold a stroke-temperature relation the model lacks. On
+  confusion benchmark 9149 a displacement read through x + 8 x^2 moved the gain +1.0
+  spreads, and a 7 MPa/K softening cut the held-out RMS from 34.5 to 19 um with the
+  gain at +2.6 spreads; the record had been called ``adequate``. A gain that merely
+  did not move leaves the softening the gain's rival, as below;
 * said as the nominal model's rival otherwise, when its gain is positive.
 
 Either way the experiment that separates the two is simulated with both
@@ -55,11 +54,11 @@ from tca_ros.diagnosis.joint_groups import calibratable
 from tca_ros.diagnosis.noise import STRUCTURE_ALPHA
 from tca_ros.diagnosis.rivals import ONE_LOAD_SOFTENING
 from tca_ros.diagnosis.search import MIN_GAIN_PERCENT
-from tca_ros.diagnosis.verdict import channel_stats, pooled_heldout_rmse
+from tca_ros.diagnosis.verdict import pooled_heldout_rmse
 
 #: softening_on_one_load's outcome: ``taken`` the JointFit to name or None, ``notes``,
 #: ``refuted`` the 'unexplained' verdict's sentence when the softening beats the calibrated
-#: nominal model decisively yet the calibrated gain says it is not one (G97), else None
+#: nominal model decisively while the records speak against one (G97), else None
 OneLoadSoftening = namedtuple('OneLoadSoftening', 'taken notes refuted')
 #: the effect a one-load record lets the calibrated nominal values absorb
 RIVAL = ONE_LOAD_SOFTENING
@@ -95,10 +94,11 @@ def predictable_below_floor(*stats):
                for part in stats for st in part.values())
 
 
-def softening_on_one_load(calibrate_with, problems, nominals, cal, candidates):
+def softening_on_one_load(calibrate_with, problems, nominals, cal, candidates, stats):
     """Return the OneLoadSoftening (the JointFit to name or None, notes, refuted).
 
-    Arguments as joint.joint_calibrations; call only for one-load records whose
+    Arguments as joint.joint_calibrations, and ``stats`` the calibrated nominal
+    model's held-out {channel: ResidualStats}; call only for one-load records whose
     calibrated nominal model is adequate with a significant residual
     (:func:`predictable_below_floor`). Module docstring for the rule.
     """
@@ -119,8 +119,8 @@ def softening_on_one_load(calibrate_with, problems, nominals, cal, candidates):
     moved, down = actuation_gain_z(cal), gain_took_up_softening(cal)
     decisive = (fit.criterion > DECISIVE_DEVIANCE and fall > 0.0 and fit.explained
                 and lowers_heldout_rms(problems, fit.sims, before)
-                and not below_floor(problems, channel_stats(problems, nominals), [RIVAL],
-                                    fit.values, fit.sims, nominals))
+                and not below_floor(problems, stats, [RIVAL], fit.values, fit.sims,
+                                    nominals))
     named = decisive and down and not fit.barred
     # the records' evidence against a softening: its fit barred (a value at a bound,
     # refuted, or moved against its own effect, G83) or the gain moved up, not down
