@@ -194,6 +194,8 @@ def test_a_decisive_softening_the_records_speak_against_makes_the_verdict_unexpl
         assert refuted.startswith('the calibrated nominal model leaves less than the '
                                   'practical floor, but modulus_softening')
         assert ('a shift a softening makes the other way' in refuted) == bool(undone)
+        assert notes[0].endswith('the records speak against a softening, and the verdict '
+                                 'says why (decisions G97)'), notes
     # below the decisive margin nothing is said against the nominal model, whatever moved
     fit.criterion = 9.0
     taken, _, refuted = one_load.softening_on_one_load(None, problems, [], cal, [], {})

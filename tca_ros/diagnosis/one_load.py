@@ -142,6 +142,9 @@ def softening_on_one_load(calibrate_with, problems, nominals, cal, candidates, s
     if named:
         notes = [f'{evidence}: named, its gain over {DECISIVE_DEVIANCE:g} '
                  '(docs/diagnosis_method.md, "One load, and what a record cannot see")']
+    elif decisive and against:
+        notes = [f'{evidence}: decisive, but not named: the records speak against a '
+                 'softening, and the verdict says why (decisions G97)']
     else:
         notes = [f'{evidence}: not decisive (a gain over {DECISIVE_DEVIANCE:g}, a held-out '
                  f'RMS {MIN_GAIN_PERCENT:g} % lower, no structure, no parameter at a bound '
