@@ -127,7 +127,7 @@ def test_a_softening_the_screen_cannot_see_is_calibrated_jointly_when_structure_
 def test_a_reading_that_grows_with_the_stroke_is_not_named_a_softening_on_one_load(tmp_path):
     # Seed 9149 of the four-per-effect benchmark: one load, 20 Hz, a displacement sensor
     # reading 8 /m x^2 high (outside the catalogue). Calibrated jointly, a softening
-    # predicts the held-out part decisively better (penalised gain 52.1), but the
+    # predicts the held-out part decisively better (penalised gain 55.8), but the
     # calibrated gain moved up (+1.0 spreads), where a softening moves it down: a coil
     # that softens as it heats stretches under its load and loses stroke (G58). The
     # calibrated nominal model, though within the practical floor, is beaten on the
